@@ -1,0 +1,384 @@
+// Unbiased volumetric path tracing of water light fields (the baseline integrator).
+//
+// Volume: distances are sampled from a scattering majorant; absorption is carried as the
+// weight exp(-a t) per band, and the gap between the majorant and each band's b is handled
+// by null collisions (spectral delta tracking), so one geometric path serves all bands and
+// spatially varying IOPs only need a majorant. Interfaces: Fresnel reflect / refract chosen
+// by probability, radiance scaled by the n^2 law. Sun: next-event estimation wherever a
+// straight, unrefracted connection exists (vertices in air); otherwise paths find it by
+// escaping into its disk.
+#include <cmath>
+#include <thread>
+#include <vector>
+#include "optics.h"
+#include "scene.h"
+
+namespace photic {
+
+template <class F>
+void parallel_for(size_t n, int threads, F&& body) {
+    if (threads <= 0) threads = int(std::max(1u, std::thread::hardware_concurrency()));
+    threads = int(std::min<size_t>(size_t(threads), std::max<size_t>(n, 1)));
+    std::atomic<size_t> next{0};
+    auto worker = [&](int tid) {
+        for (;;) {
+            size_t i = next.fetch_add(1);
+            if (i >= n) break;
+            body(i, tid);
+        }
+    };
+    if (threads == 1) { worker(0); return; }
+    std::vector<std::thread> pool;
+    for (int t = 0; t < threads; ++t) pool.emplace_back(worker, t);
+    for (auto& th : pool) th.join();
+}
+
+namespace {
+
+Vec3 cosine_hemisphere(const Vec3& n, double u1, double u2) {
+    // 1 - cos(theta) = 1 - sqrt(1 - u1)
+    double mu = std::sqrt(1.0 - u1);
+    return direction_around(n, 1.0 - mu, 2.0 * kPi * u2);
+}
+
+double max_component(const Spectrum& s, int nb) {
+    double m = 0.0;
+    for (int k = 0; k < nb; ++k) m = std::max(m, s.v[k]);
+    return m;
+}
+
+}  // namespace
+
+Spectrum Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, Rng& rng, Counters& c) const {
+    const int nb = nbands;
+    Spectrum L;
+    Spectrum beta = Spectrum::constant(1.0);
+    int depth = 0;
+    c.paths++;
+    for (;;) {
+        Hit h = intersect(o, d);
+        c.segments++;
+        double t_hit = h.valid ? h.t : kInf;
+
+        if (medium >= 0) {
+            const Water& w = waters[medium];
+            bool scattered = false;
+            double t_cur = 0.0;
+            if (w.majorant > 0.0) {
+                for (;;) {
+                    double dt = -std::log(1.0 - rng.uniform()) / w.majorant;
+                    if (t_cur + dt >= t_hit) break;
+                    t_cur += dt;
+                    double num = 0.0, den = 0.0;
+                    for (int k = 0; k < nb; ++k) {
+                        beta.v[k] *= std::exp(-w.a.v[k] * dt);
+                        num += beta.v[k] * (w.b.v[k] / w.majorant);
+                        den += beta.v[k];
+                    }
+                    if (!(den > 0.0)) return L;
+                    double p_real = num / den;
+                    if (rng.uniform() < p_real) {
+                        for (int k = 0; k < nb; ++k) beta.v[k] *= (w.b.v[k] / w.majorant) / p_real;
+                        scattered = true;
+                        break;
+                    }
+                    for (int k = 0; k < nb; ++k) beta.v[k] *= (1.0 - w.b.v[k] / w.majorant) / (1.0 - p_real);
+                }
+            }
+            if (scattered) {
+                if (++depth > max_depth) return L;
+                o = o + d * t_cur;
+                // Choose a mixture component by its throughput-weighted share of scattering,
+                // sample it, and weight each band by its own phase function over the pdf.
+                size_t nc = w.components.size();
+                Vec3 nd;
+                if (nc == 1) {
+                    const PhaseFunction& pf = phases[w.components[0].phase];
+                    double u1 = rng.uniform(), u2 = rng.uniform();
+                    nd = pf.sample_direction(d, u1, u2);
+                } else {
+                    double q[32];
+                    double qsum = 0.0, wsum = 0.0;
+                    for (int k = 0; k < nb; ++k) wsum += beta.v[k];
+                    for (size_t ci = 0; ci < nc; ++ci) {
+                        double s = 0.0;
+                        for (int k = 0; k < nb; ++k)
+                            if (w.b.v[k] > 0) s += beta.v[k] * w.components[ci].b.v[k] / w.b.v[k];
+                        q[ci] = wsum > 0 ? s / wsum : 0.0;
+                        qsum += q[ci];
+                    }
+                    double u = rng.uniform() * qsum;
+                    size_t pick = 0;
+                    while (pick + 1 < nc && u >= q[pick]) { u -= q[pick]; ++pick; }
+                    double u1 = rng.uniform(), u2 = rng.uniform();
+                    nd = phases[w.components[pick].phase].sample_direction(d, u1, u2);
+                    double x = std::max(0.0, 1.0 - dot(d, nd));
+                    double pv[32];
+                    double pdf = 0.0;
+                    for (size_t ci = 0; ci < nc; ++ci) {
+                        pv[ci] = phases[w.components[ci].phase].eval(x);
+                        pdf += (q[ci] / qsum) * pv[ci];
+                    }
+                    for (int k = 0; k < nb; ++k) {
+                        if (!(w.b.v[k] > 0)) continue;
+                        double pk = 0.0;
+                        for (size_t ci = 0; ci < nc; ++ci) pk += w.components[ci].b.v[k] * pv[ci];
+                        beta.v[k] *= pdf > 0 ? (pk / w.b.v[k]) / pdf : 0.0;
+                    }
+                }
+                d = nd;
+                sun_covered = false;  // no straight connection to the sun from inside water
+                if (depth >= rr_depth) {
+                    double q = std::min(0.95, max_component(beta, nb));
+                    if (!(rng.uniform() < q)) return L;
+                    for (int k = 0; k < nb; ++k) beta.v[k] /= q;
+                }
+                continue;
+            }
+            if (!h.valid) return L;  // lost in infinitely deep water
+            for (int k = 0; k < nb; ++k) beta.v[k] *= std::exp(-w.a.v[k] * (t_hit - t_cur));
+        }
+
+        if (!h.valid) {  // escaped to the environment
+            Spectrum sky = sky_radiance(d);
+            bool sun = !sun_covered && in_sun(d);
+            for (int k = 0; k < nb; ++k)
+                L.v[k] += beta.v[k] * (sky.v[k] + (sun ? sun_radiance.v[k] : 0.0));
+            return L;
+        }
+
+        Vec3 x = o + d * t_hit;
+        double off = offset_for(x);
+        if (++depth > max_depth) return L;
+
+        if (h.kind == SurfaceKind::kOpaque) {
+            Vec3 n = dot(h.n, d) > 0.0 ? -h.n : h.n;  // face the arriving ray
+            const Material& m = materials[h.index];
+            Vec3 xo = x + n * off;
+            bool nee = has_sun && medium < 0;
+            if (nee) {
+                double u1 = rng.uniform(), u2 = rng.uniform();
+                Vec3 ws = sample_sun(u1, u2);
+                double cs = dot(n, ws);
+                if (cs > 0.0) {
+                    c.shadow_rays++;
+                    if (!occluded(xo, ws)) {
+                        double f = cs * kInvPi / sun_pdf();
+                        for (int k = 0; k < nb; ++k)
+                            L.v[k] += beta.v[k] * m.reflectance.v[k] * sun_radiance.v[k] * f;
+                    }
+                }
+            }
+            sun_covered = nee;
+            double u1 = rng.uniform(), u2 = rng.uniform();
+            d = cosine_hemisphere(n, u1, u2);
+            for (int k = 0; k < nb; ++k) beta.v[k] *= m.reflectance.v[k];
+            o = xo;
+        } else {
+            // Water boundary with outward normal h.n.
+            const Water& w = waters[h.index];
+            bool entering = dot(d, h.n) < 0.0;
+            double n1 = entering ? 1.0 : w.ior, n2 = entering ? w.ior : 1.0;
+            Vec3 nf = entering ? h.n : -h.n;
+            double cos_i = -dot(d, nf);
+            double F = fresnel_unpolarized(cos_i, n1, n2);
+            Vec3 dt;
+            if (rng.uniform() < F || !refract(d, nf, n1, n2, &dt)) {
+                d = normalize(reflect(d, nf));
+                o = x + nf * off;
+            } else {
+                double r = n1 / n2;
+                for (int k = 0; k < nb; ++k) beta.v[k] *= r * r;  // radiance n^2 law
+                d = dt;
+                o = x - nf * off;
+                medium = entering ? h.index : -1;
+            }
+            sun_covered = false;  // a specular event: NEE could not have seen this path
+        }
+        if (depth >= rr_depth) {
+            double q = std::min(0.95, max_component(beta, nb));
+            if (!(q > 0.0) || !(rng.uniform() < q)) return L;
+            for (int k = 0; k < nb; ++k) beta.v[k] /= q;
+        }
+    }
+}
+
+void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
+                          double* sum, double* sumsq, Counters* total) const {
+    const Camera& cam = cameras.at(ci);
+    const int nb = nbands;
+    size_t npix = size_t(cam.width) * size_t(cam.height);
+    std::vector<Counters> per_thread(64);
+    int nthreads = threads <= 0 ? int(std::max(1u, std::thread::hardware_concurrency())) : threads;
+    per_thread.resize(std::max(64, nthreads));
+    // One task per row: a pixel's samples are always summed by one thread in order.
+    parallel_for(size_t(cam.height), nthreads, [&](size_t row, int tid) {
+        if (cancel_flag.load(std::memory_order_relaxed)) return;
+        Counters& cnt = per_thread[tid];
+        for (int px = 0; px < cam.width; ++px) {
+            size_t pix = row * size_t(cam.width) + size_t(px);
+            double* s = sum + pix * nb;
+            double* s2 = sumsq + pix * nb;
+            for (uint64_t si = start; si < start + count; ++si) {
+                Rng rng(seed, 0x100000000ull * uint64_t(ci + 1), uint64_t(pix) * 0x100000000ull + si);
+                double fx, fy;
+                double u1 = rng.uniform(), u2 = rng.uniform();
+                if (cam.filter == 1) {  // Gaussian with the given FWHM (Box-Muller)
+                    double sigma = cam.filter_width / 2.354820045;
+                    double r = sigma * std::sqrt(-2.0 * std::log(1.0 - u1));
+                    fx = r * std::cos(2 * kPi * u2); fy = r * std::sin(2 * kPi * u2);
+                } else {
+                    fx = (u1 - 0.5) * cam.filter_width; fy = (u2 - 0.5) * cam.filter_width;
+                }
+                // Normalised image coordinates in [-1, 1] horizontally, row 0 at the top.
+                double sx = 2.0 * ((px + 0.5 + fx) / cam.width) - 1.0;
+                double sy = 1.0 - 2.0 * ((row + 0.5 + fy) / cam.height);
+                double aspect = double(cam.height) / double(cam.width);
+                Vec3 o, d;
+                if (cam.orthographic) {
+                    double hw = 0.5 * cam.ortho_width;
+                    o = cam.position + cam.right * (sx * hw) + cam.up * (sy * hw * aspect);
+                    d = cam.forward;
+                } else {
+                    o = cam.position;
+                    d = normalize(cam.forward + cam.right * (sx * cam.tan_half_fov) +
+                                  cam.up * (sy * cam.tan_half_fov * aspect));
+                }
+                Spectrum L = trace(o, d, cam.medium, false, rng, cnt);
+                for (int k = 0; k < nb; ++k) { s[k] += L.v[k]; s2[k] += L.v[k] * L.v[k]; }
+            }
+        }
+    });
+    if (total)
+        for (const auto& c : per_thread) {
+            total->segments += c.segments; total->shadow_rays += c.shadow_rays; total->paths += c.paths;
+        }
+    (void)npix;
+}
+
+double Scene::radiometer_sample(int ri, uint64_t index, Spectrum* out, int* bin, Counters& c) const {
+    const Radiometer& r = radiometers[ri];
+    Rng rng(seed, 0x7000000000000000ull + uint64_t(ri), index);
+    double u1 = rng.uniform(), u2 = rng.uniform();
+    Vec3 w;            // look direction: light arrives travelling along -w
+    double weight;     // response / pdf
+    *bin = 0;
+    auto response = [&](const Vec3& v) -> double {  // W(v) for the sun's next-event estimate
+        switch (r.quantity) {
+            case Quantity::kEd: return std::max(0.0, v.z);
+            case Quantity::kEu: return std::max(0.0, -v.z);
+            case Quantity::kEo: return 1.0;
+            case Quantity::kEod: return v.z > 0 ? 1.0 : 0.0;
+            case Quantity::kEou: return v.z < 0 ? 1.0 : 0.0;
+            case Quantity::kRadiance:
+                return dot(v, r.direction) >= r.cos_half_angle ? 1.0 / (2 * kPi * (1 - r.cos_half_angle)) : 0.0;
+            case Quantity::kRadianceDistribution: {
+                double theta = std::acos(std::clamp(v.z, -1.0, 1.0));
+                double phi = std::atan2(v.y, v.x);
+                if (phi < 0) phi += 2 * kPi;
+                int ip = std::min(r.polar_bins - 1, int(theta / kPi * r.polar_bins));
+                int ia = std::min(r.azimuth_bins - 1, int(phi / (2 * kPi) * r.azimuth_bins));
+                if (ip * r.azimuth_bins + ia != *bin) return 0.0;
+                double t0 = kPi * ip / r.polar_bins, t1 = kPi * (ip + 1) / r.polar_bins;
+                double omega = (std::cos(t0) - std::cos(t1)) * (2 * kPi / r.azimuth_bins);
+                return 1.0 / omega;
+            }
+        }
+        return 0.0;
+    };
+    const Vec3 up(0, 0, 1);
+    switch (r.quantity) {
+        case Quantity::kEd: w = cosine_hemisphere(up, u1, u2); weight = kPi; break;
+        case Quantity::kEu: w = cosine_hemisphere(-up, u1, u2); weight = kPi; break;
+        case Quantity::kEo: w = direction_around(up, 2.0 * u1, 2 * kPi * u2); weight = 4 * kPi; break;
+        case Quantity::kEod: w = direction_around(up, u1, 2 * kPi * u2); weight = 2 * kPi; break;
+        case Quantity::kEou: w = direction_around(-up, u1, 2 * kPi * u2); weight = 2 * kPi; break;
+        case Quantity::kRadiance:
+            w = direction_around(r.direction, u1 * (1.0 - r.cos_half_angle), 2 * kPi * u2); weight = 1.0; break;
+        case Quantity::kRadianceDistribution: {
+            int nbins = r.polar_bins * r.azimuth_bins;
+            *bin = int(index % uint64_t(nbins));  // stratified over bins
+            int ip = *bin / r.azimuth_bins, ia = *bin % r.azimuth_bins;
+            double c0 = std::cos(kPi * ip / r.polar_bins), c1 = std::cos(kPi * (ip + 1) / r.polar_bins);
+            double mu = c0 + u1 * (c1 - c0);
+            double phi = 2 * kPi * (ia + u2) / r.azimuth_bins;
+            double st = std::sqrt(std::max(0.0, 1 - mu * mu));
+            w = Vec3(st * std::cos(phi), st * std::sin(phi), mu);
+            weight = 1.0;
+            break;
+        }
+    }
+    bool sensor_nee = has_sun && r.medium < 0;
+    Spectrum L = trace(r.position, w, r.medium, sensor_nee, rng, c);
+    for (int k = 0; k < nbands; ++k) L.v[k] *= weight;
+    if (sensor_nee) {
+        double s1 = rng.uniform(), s2 = rng.uniform();
+        Vec3 ws = sample_sun(s1, s2);
+        double resp = response(ws);
+        if (resp > 0.0) {
+            c.shadow_rays++;
+            if (!occluded(r.position, ws))
+                for (int k = 0; k < nbands; ++k) L.v[k] += resp * sun_radiance.v[k] / sun_pdf();
+        }
+    }
+    *out = L;
+    return weight;
+}
+
+void Scene::render_radiometer(int ri, uint64_t start, uint64_t count, int threads,
+                              double* sum, double* sumsq, Counters* total) const {
+    const Radiometer& r = radiometers.at(ri);
+    const int nb = nbands, nbins = r.bins();
+    const uint64_t kChunk = 1024;
+    size_t nchunks = size_t((count + kChunk - 1) / kChunk);
+    std::vector<double> csum(nchunks * nbins * nb, 0.0), csq(nchunks * nbins * nb, 0.0);
+    int nthreads = threads <= 0 ? int(std::max(1u, std::thread::hardware_concurrency())) : threads;
+    std::vector<Counters> per_thread(std::max(64, nthreads));
+    parallel_for(nchunks, nthreads, [&](size_t chunk, int tid) {
+        if (cancel_flag.load(std::memory_order_relaxed)) return;
+        uint64_t b = start + chunk * kChunk, e = std::min(start + count, b + kChunk);
+        double* s = &csum[chunk * nbins * nb];
+        double* s2 = &csq[chunk * nbins * nb];
+        for (uint64_t i = b; i < e; ++i) {
+            Spectrum L;
+            int bin = 0;
+            radiometer_sample(ri, i, &L, &bin, per_thread[tid]);
+            for (int k = 0; k < nb; ++k) {
+                s[bin * nb + k] += L.v[k];
+                s2[bin * nb + k] += L.v[k] * L.v[k];
+            }
+        }
+    });
+    // Reduce in chunk order so the result is independent of the thread count.
+    for (size_t ch = 0; ch < nchunks; ++ch)
+        for (int i = 0; i < nbins * nb; ++i) {
+            sum[i] += csum[ch * nbins * nb + i];
+            sumsq[i] += csq[ch * nbins * nb + i];
+        }
+    if (total)
+        for (const auto& c : per_thread) {
+            total->segments += c.segments; total->shadow_rays += c.shadow_rays; total->paths += c.paths;
+        }
+}
+
+void Scene::trace_rays(const float* o, const float* d, size_t n, int threads, float* t_out) const {
+    const size_t kBlock = 4096;
+    size_t nblocks = (n + kBlock - 1) / kBlock;
+    parallel_for(nblocks, threads, [&](size_t blk, int) {
+        size_t b = blk * kBlock, e = std::min(n, b + kBlock);
+        RTCIntersectContext ctx;
+        rtcInitIntersectContext(&ctx);
+        for (size_t i = b; i < e; ++i) {
+            RTCRayHit rh;
+            rh.ray.org_x = o[3 * i]; rh.ray.org_y = o[3 * i + 1]; rh.ray.org_z = o[3 * i + 2];
+            rh.ray.dir_x = d[3 * i]; rh.ray.dir_y = d[3 * i + 1]; rh.ray.dir_z = d[3 * i + 2];
+            rh.ray.tnear = 0.0f; rh.ray.tfar = std::numeric_limits<float>::infinity();
+            rh.ray.time = 0.0f; rh.ray.mask = 0xFFFFFFFFu; rh.ray.id = 0; rh.ray.flags = 0;
+            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID; rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+            rtcIntersect1(scene_, &ctx, &rh);
+            t_out[i] = rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? -1.0f : rh.ray.tfar;
+        }
+    });
+}
+
+}  // namespace photic

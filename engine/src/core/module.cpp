@@ -1,0 +1,209 @@
+// Python bindings of the compiled core (photic._core). Heavy calls release the GIL.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include "optics.h"
+#include "scene.h"
+
+namespace py = pybind11;
+using namespace photic;
+
+namespace {
+
+using DArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+using FArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
+using UArray = py::array_t<uint32_t, py::array::c_style | py::array::forcecast>;
+
+Spectrum to_spectrum(const DArray& a, int nb, const char* what) {
+    if (a.ndim() != 1 || a.shape(0) != nb)
+        throw std::invalid_argument(std::string(what) + ": expected one value per band");
+    Spectrum s;
+    for (int k = 0; k < nb; ++k) s.v[k] = a.at(k);
+    return s;
+}
+
+Vec3 to_vec(const std::array<double, 3>& a) { return Vec3(a[0], a[1], a[2]); }
+
+py::dict counters_dict(const Counters& c) {
+    py::dict d;
+    d["segments"] = c.segments;
+    d["shadow_rays"] = c.shadow_rays;
+    d["paths"] = c.paths;
+    return d;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_core, m) {
+    m.doc() = "Photic compiled core: Embree geometry, phase functions and the path tracer";
+    m.attr("MAX_BANDS") = kMaxBands;
+
+    m.def("fresnel", [](double cos_i, double n1, double n2) { return fresnel_unpolarized(cos_i, n1, n2); },
+          py::arg("cos_i"), py::arg("n1"), py::arg("n2"),
+          "Unpolarised Fresnel reflectance (1 beyond the critical angle).");
+    m.def("refract", [](std::array<double, 3> d, std::array<double, 3> n, double n1, double n2) -> py::object {
+              Vec3 out;
+              if (!refract(to_vec(d), to_vec(n), n1, n2, &out)) return py::none();
+              return py::cast(std::array<double, 3>{out.x, out.y, out.z});
+          }, py::arg("d"), py::arg("n"), py::arg("n1"), py::arg("n2"),
+          "Refracted direction (None on total internal reflection); n faces the incoming side.");
+
+    py::class_<PhaseFunction>(m, "PhaseFunction")
+        .def_static("isotropic", &PhaseFunction::isotropic)
+        .def_static("henyey_greenstein", &PhaseFunction::henyey_greenstein, py::arg("g"))
+        .def_static("quadratic", &PhaseFunction::quadratic, py::arg("a"))
+        .def_static("table", [](DArray x, DArray v) {
+            std::vector<double> xs(x.data(), x.data() + x.size()), vs(v.data(), v.data() + v.size());
+            return PhaseFunction::table(xs, vs);
+        }, py::arg("x"), py::arg("values"))
+        .def("eval", [](const PhaseFunction& p, DArray x) {
+            DArray out(x.size());
+            for (py::ssize_t i = 0; i < x.size(); ++i) out.mutable_data()[i] = p.eval(x.data()[i]);
+            return out;
+        }, py::arg("x"), "Phase function (1/sr) at x = 1 - cos(psi).")
+        .def("sample_x", [](const PhaseFunction& p, DArray u) {
+            DArray out(u.size());
+            for (py::ssize_t i = 0; i < u.size(); ++i) out.mutable_data()[i] = p.sample_x(u.data()[i]);
+            return out;
+        }, py::arg("u"), "Inverse-CDF samples of x = 1 - cos(psi) from uniforms u.")
+        .def_property_readonly("table_x", &PhaseFunction::table_x)
+        .def_property_readonly("table_values", &PhaseFunction::table_values);
+
+    py::class_<Scene>(m, "Scene")
+        .def(py::init<>())
+        .def_readwrite("nbands", &Scene::nbands)
+        .def_readwrite("seed", &Scene::seed)
+        .def_readwrite("max_depth", &Scene::max_depth)
+        .def_readwrite("rr_depth", &Scene::rr_depth)
+        .def("add_material", [](Scene& s, DArray refl) {
+            s.materials.push_back({to_spectrum(refl, s.nbands, "reflectance")});
+            return int(s.materials.size()) - 1;
+        })
+        .def("add_phase", [](Scene& s, const PhaseFunction& p) {
+            s.phases.push_back(p);
+            return int(s.phases.size()) - 1;
+        })
+        .def("add_water", [](Scene& s, double ior, DArray a, std::vector<std::pair<int, DArray>> comps) {
+            Water w;
+            w.ior = ior;
+            w.a = to_spectrum(a, s.nbands, "absorption");
+            if (comps.size() > 16) throw std::invalid_argument("at most 16 scattering components");
+            for (auto& [pid, b] : comps) {
+                if (pid < 0 || pid >= int(s.phases.size())) throw std::invalid_argument("bad phase index");
+                ScatterComponent c{pid, to_spectrum(b, s.nbands, "scattering")};
+                for (int k = 0; k < s.nbands; ++k) w.b.v[k] += c.b.v[k];
+                w.components.push_back(c);
+            }
+            for (int k = 0; k < s.nbands; ++k) w.majorant = std::max(w.majorant, w.b.v[k]);
+            s.waters.push_back(w);
+            return int(s.waters.size()) - 1;
+        }, py::arg("ior"), py::arg("absorption"), py::arg("components"))
+        .def("add_mesh", [](Scene& s, FArray v, UArray t, int kind, int index) {
+            if (v.ndim() != 2 || v.shape(1) != 3 || t.ndim() != 2 || t.shape(1) != 3)
+                throw std::invalid_argument("vertices and triangles must be (N, 3) arrays");
+            MeshRecord r;
+            r.kind = kind == 0 ? SurfaceKind::kOpaque : SurfaceKind::kWaterBoundary;
+            r.index = index;
+            r.vertices.assign(v.data(), v.data() + v.size());
+            r.triangles.assign(t.data(), t.data() + t.size());
+            for (uint32_t i : r.triangles)
+                if (i >= uint32_t(v.shape(0))) throw std::invalid_argument("triangle index out of range");
+            s.meshes.push_back(std::move(r));
+            return int(s.meshes.size()) - 1;
+        }, py::arg("vertices"), py::arg("triangles"), py::arg("kind"), py::arg("index"))
+        .def("set_ocean_flat", [](Scene& s, int water, double z) {
+            s.ocean_water = water; s.ocean_flat = true; s.ocean_z = z;
+        })
+        .def("set_ocean_patch", [](Scene& s, int water, FArray v, UArray t, double x0, double y0,
+                                   double lx, double ly, double zmean) {
+            s.ocean_water = water; s.ocean_flat = false; s.ocean_z = zmean;
+            s.patch_vertices.assign(v.data(), v.data() + v.size());
+            s.patch_triangles.assign(t.data(), t.data() + t.size());
+            s.patch_x0 = x0; s.patch_y0 = y0; s.patch_lx = lx; s.patch_ly = ly;
+        })
+        .def("set_bottom", [](Scene& s, double z, int material) {
+            s.has_bottom = true; s.bottom_z = z; s.bottom_material = material;
+        })
+        .def("set_sun", [](Scene& s, std::array<double, 3> dir, DArray radiance, double cos_half) {
+            s.has_sun = true;
+            s.sun_dir = normalize(to_vec(dir));
+            s.sun_radiance = to_spectrum(radiance, s.nbands, "sun radiance");
+            s.sun_cos_half = cos_half;
+        })
+        .def("set_sky", [](Scene& s, int type, DArray l0, bool full_sphere) {
+            s.sky_type = type;
+            s.sky_l0 = to_spectrum(l0, s.nbands, "sky radiance");
+            s.sky_full_sphere = full_sphere;
+        })
+        .def("add_camera", [](Scene& s, bool ortho, std::array<double, 3> pos, std::array<double, 3> fwd,
+                              std::array<double, 3> up, double fov_deg, double ortho_width, int w, int h,
+                              int filter, double filter_width) {
+            Camera c;
+            c.orthographic = ortho;
+            c.position = to_vec(pos);
+            c.forward = normalize(to_vec(fwd));
+            c.right = normalize(cross(c.forward, to_vec(up)));
+            c.up = cross(c.right, c.forward);
+            c.tan_half_fov = std::tan(0.5 * fov_deg * kPi / 180.0);
+            c.ortho_width = ortho_width;
+            c.width = w; c.height = h; c.filter = filter; c.filter_width = filter_width;
+            s.cameras.push_back(c);
+            return int(s.cameras.size()) - 1;
+        })
+        .def("add_radiometer", [](Scene& s, int quantity, std::array<double, 3> pos, std::array<double, 3> dir,
+                                  double half_angle_deg, int polar_bins, int azimuth_bins) {
+            Radiometer r;
+            r.quantity = Quantity(quantity);
+            r.position = to_vec(pos);
+            r.direction = normalize(to_vec(dir));
+            r.cos_half_angle = std::cos(half_angle_deg * kPi / 180.0);
+            r.polar_bins = polar_bins; r.azimuth_bins = azimuth_bins;
+            s.radiometers.push_back(r);
+            return int(s.radiometers.size()) - 1;
+        })
+        .def("commit", [](Scene& s) { py::gil_scoped_release nogil; s.commit(); })
+        .def("medium_at", [](const Scene& s, std::array<double, 3> p) { return s.medium_at(to_vec(p)); })
+        .def("camera_medium", [](const Scene& s, int i) { return s.cameras.at(i).medium; })
+        .def("radiometer_medium", [](const Scene& s, int i) { return s.radiometers.at(i).medium; })
+        .def("radiometer_bins", [](const Scene& s, int i) { return s.radiometers.at(i).bins(); })
+        .def_property_readonly("extent", &Scene::scene_extent)
+        .def("cancel", [](Scene& s) { s.cancel_flag.store(true); })
+        .def("reset_cancel", [](Scene& s) { s.cancel_flag.store(false); })
+        .def_property_readonly("cancelled", [](const Scene& s) { return s.cancel_flag.load(); })
+        .def("render_camera", [](const Scene& s, int cam, uint64_t start, uint64_t count, int threads) {
+            const Camera& c = s.cameras.at(cam);
+            DArray sum({c.height, c.width, s.nbands}), sq({c.height, c.width, s.nbands});
+            std::fill(sum.mutable_data(), sum.mutable_data() + sum.size(), 0.0);
+            std::fill(sq.mutable_data(), sq.mutable_data() + sq.size(), 0.0);
+            Counters cnt;
+            {
+                py::gil_scoped_release nogil;
+                s.render_camera(cam, start, count, threads, sum.mutable_data(), sq.mutable_data(), &cnt);
+            }
+            return py::make_tuple(sum, sq, counters_dict(cnt));
+        }, py::arg("camera"), py::arg("start"), py::arg("count"), py::arg("threads") = 0)
+        .def("render_radiometer", [](const Scene& s, int rad, uint64_t start, uint64_t count, int threads) {
+            int nbins = s.radiometers.at(rad).bins();
+            DArray sum({nbins, s.nbands}), sq({nbins, s.nbands});
+            std::fill(sum.mutable_data(), sum.mutable_data() + sum.size(), 0.0);
+            std::fill(sq.mutable_data(), sq.mutable_data() + sq.size(), 0.0);
+            Counters cnt;
+            {
+                py::gil_scoped_release nogil;
+                s.render_radiometer(rad, start, count, threads, sum.mutable_data(), sq.mutable_data(), &cnt);
+            }
+            return py::make_tuple(sum, sq, counters_dict(cnt));
+        }, py::arg("radiometer"), py::arg("start"), py::arg("count"), py::arg("threads") = 0)
+        .def("trace_rays", [](const Scene& s, FArray o, FArray d, int threads) {
+            if (o.ndim() != 2 || o.shape(1) != 3 || d.ndim() != 2 || d.shape(1) != 3 || o.shape(0) != d.shape(0))
+                throw std::invalid_argument("origins and directions must be matching (N, 3) arrays");
+            size_t n = size_t(o.shape(0));
+            FArray t(n);
+            {
+                py::gil_scoped_release nogil;
+                s.trace_rays(o.data(), d.data(), n, threads, t.mutable_data());
+            }
+            return t;
+        }, py::arg("origins"), py::arg("directions"), py::arg("threads") = 0,
+           "Closest-hit distances (-1 for a miss) of the main Embree scene: raw ray throughput.");
+}

@@ -1,0 +1,90 @@
+#include "phase.h"
+#include <algorithm>
+
+namespace photic {
+
+PhaseFunction PhaseFunction::table(const std::vector<double>& x, const std::vector<double>& v) {
+    if (x.size() != v.size() || x.size() < 2)
+        throw std::invalid_argument("phase table: x and values must have the same length >= 2");
+    if (std::fabs(x.front()) > 1e-15 || std::fabs(x.back() - 2.0) > 1e-12)
+        throw std::invalid_argument("phase table: x must run from 0 to 2");
+    for (size_t i = 0; i < x.size(); ++i) {
+        if (!(v[i] >= 0.0) || !std::isfinite(v[i]))
+            throw std::invalid_argument("phase table: values must be finite and >= 0");
+        if (i > 0 && !(x[i] > x[i - 1])) throw std::invalid_argument("phase table: x must increase");
+    }
+    PhaseFunction p;
+    p.kind_ = kTable;
+    p.x_ = x;
+    p.v_ = v;
+    p.cdf_.assign(x.size(), 0.0);
+    for (size_t i = 1; i < x.size(); ++i)
+        p.cdf_[i] = p.cdf_[i - 1] + 2.0 * kPi * 0.5 * (v[i - 1] + v[i]) * (x[i] - x[i - 1]);
+    double total = p.cdf_.back();
+    if (!(total > 0.0)) throw std::invalid_argument("phase table: integral is zero");
+    for (auto& c : p.cdf_) c /= total;
+    for (auto& val : p.v_) val /= total;
+    p.cdf_.back() = 1.0;
+    return p;
+}
+
+double PhaseFunction::eval(double x) const {
+    x = std::clamp(x, 0.0, 2.0);
+    switch (kind_) {
+        case kIsotropic: return 1.0 / (4.0 * kPi);
+        case kHenyeyGreenstein: {
+            double mu = 1.0 - x;
+            double den = 1.0 + g_ * g_ - 2.0 * g_ * mu;
+            return (1.0 - g_ * g_) / (4.0 * kPi * den * std::sqrt(den));
+        }
+        case kQuadratic: {
+            double mu = 1.0 - x;
+            return 3.0 * (1.0 + a_ * mu * mu) / (4.0 * kPi * (3.0 + a_));
+        }
+        case kTable: {
+            auto it = std::upper_bound(x_.begin(), x_.end(), x);
+            size_t i = std::min<size_t>(std::max<ptrdiff_t>(it - x_.begin(), 1), x_.size() - 1);
+            double t = (x - x_[i - 1]) / (x_[i] - x_[i - 1]);
+            return v_[i - 1] + t * (v_[i] - v_[i - 1]);
+        }
+    }
+    return 0.0;
+}
+
+double PhaseFunction::sample_x(double u) const {
+    switch (kind_) {
+        case kIsotropic: return 2.0 * u;
+        case kHenyeyGreenstein: {
+            if (std::fabs(g_) < 1e-5) return 2.0 * u;
+            // Inverse CDF written for x = 1 - mu directly (no cancellation near mu = 1).
+            double s = (1.0 - g_ * g_) / (1.0 - g_ + 2.0 * g_ * u);
+            double x = (s - (1.0 - g_)) * (s + (1.0 - g_)) / (2.0 * g_);
+            return std::clamp(x, 0.0, 2.0);
+        }
+        case kQuadratic: {
+            // CDF in mu: (mu + a mu^3/3 + 1 + a/3) / (2 + 2a/3) = 1 - u (u measured from mu = 1);
+            // solve the depressed cubic mu^3 + p mu + q = 0 (one real root since p > 0).
+            double target = 1.0 - u;
+            if (a_ < 1e-9) return 2.0 * u;
+            double p = 3.0 / a_;
+            double q = 3.0 * ((1.0 + a_ / 3.0) - target * (2.0 + 2.0 * a_ / 3.0)) / a_;
+            double disc = std::sqrt(q * q / 4.0 + p * p * p / 27.0);
+            double mu = std::cbrt(-q / 2.0 + disc) + std::cbrt(-q / 2.0 - disc);
+            return std::clamp(1.0 - mu, 0.0, 2.0);
+        }
+        case kTable: {
+            auto it = std::upper_bound(cdf_.begin(), cdf_.end(), u);
+            size_t i = std::min<size_t>(std::max<ptrdiff_t>(it - cdf_.begin(), 1), cdf_.size() - 1);
+            double dx = x_[i] - x_[i - 1];
+            double v0 = v_[i - 1], slope = (v_[i] - v_[i - 1]) / dx;
+            double r = (u - cdf_[i - 1]) / (2.0 * kPi);  // area still to cover in this segment
+            double disc = std::max(0.0, v0 * v0 + 2.0 * slope * r);
+            double den = v0 + std::sqrt(disc);
+            double t = den > 0.0 ? 2.0 * r / den : 0.0;  // stable root of v0 t + slope t^2/2 = r
+            return std::clamp(x_[i - 1] + std::clamp(t, 0.0, dx), 0.0, 2.0);
+        }
+    }
+    return 0.0;
+}
+
+}  // namespace photic

@@ -1,0 +1,245 @@
+#include "scene.h"
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+
+namespace photic {
+
+namespace {
+
+RTCScene build_embree_scene(RTCDevice device, const std::vector<const MeshRecord*>& meshes) {
+    RTCScene scene = rtcNewScene(device);
+    rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
+    for (const MeshRecord* m : meshes) {
+        size_t nv = m->vertices.size() / 3, nt = m->triangles.size() / 3;
+        RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+        auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
+            g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
+        auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
+            g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), nt));
+        if (!vb || !ib) throw std::runtime_error("Embree could not allocate geometry buffers");
+        std::memcpy(vb, m->vertices.data(), m->vertices.size() * sizeof(float));
+        std::memcpy(ib, m->triangles.data(), m->triangles.size() * sizeof(uint32_t));
+        rtcCommitGeometry(g);
+        rtcAttachGeometry(scene, g);  // ids are assigned 0, 1, 2, ... in order
+        rtcReleaseGeometry(g);
+    }
+    rtcCommitScene(scene);
+    return scene;
+}
+
+Vec3 triangle_normal(const MeshRecord& m, unsigned prim) {
+    const uint32_t* t = &m.triangles[3 * prim];
+    auto v = [&](uint32_t i) { return Vec3(m.vertices[3 * i], m.vertices[3 * i + 1], m.vertices[3 * i + 2]); };
+    Vec3 a = v(t[0]), b = v(t[1]), c = v(t[2]);
+    return normalize(cross(b - a, c - a));
+}
+
+RTCRayHit make_rayhit(const Vec3& o, const Vec3& d, double tmin, double tmax) {
+    RTCRayHit rh;
+    rh.ray.org_x = float(o.x); rh.ray.org_y = float(o.y); rh.ray.org_z = float(o.z);
+    rh.ray.dir_x = float(d.x); rh.ray.dir_y = float(d.y); rh.ray.dir_z = float(d.z);
+    rh.ray.tnear = float(std::max(0.0, tmin));
+    rh.ray.tfar = tmax >= kInf ? std::numeric_limits<float>::infinity() : float(tmax);
+    rh.ray.time = 0.0f;
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    return rh;
+}
+
+}  // namespace
+
+Scene::Scene() {
+    device_ = rtcNewDevice(nullptr);
+    if (!device_) throw std::runtime_error("Embree device could not be created");
+}
+
+Scene::~Scene() {
+    if (scene_) rtcReleaseScene(scene_);
+    if (patch_scene_) rtcReleaseScene(patch_scene_);
+    if (device_) rtcReleaseDevice(device_);
+}
+
+void Scene::commit() {
+    if (nbands < 1 || nbands > kMaxBands) throw std::invalid_argument("nbands must be in 1..16");
+    std::vector<const MeshRecord*> ptrs;
+    Vec3 lo(kInf, kInf, kInf), hi(-kInf, -kInf, -kInf);
+    auto grow = [&](double x, double y, double z) {
+        lo = Vec3(std::min(lo.x, x), std::min(lo.y, y), std::min(lo.z, z));
+        hi = Vec3(std::max(hi.x, x), std::max(hi.y, y), std::max(hi.z, z));
+    };
+    for (const auto& m : meshes) {
+        ptrs.push_back(&m);
+        for (size_t i = 0; i + 2 < m.vertices.size(); i += 3) grow(m.vertices[i], m.vertices[i + 1], m.vertices[i + 2]);
+    }
+    for (const auto& c : cameras) grow(c.position.x, c.position.y, c.position.z);
+    for (const auto& r : radiometers) grow(r.position.x, r.position.y, r.position.z);
+    if (ocean_water >= 0) grow(0, 0, ocean_z);
+    if (has_bottom) grow(0, 0, bottom_z);
+    extent_ = lo.x <= hi.x ? std::max(1e-3, length(hi - lo)) : 1.0;
+    eps_ = 1e-6 * extent_;
+
+    if (scene_) rtcReleaseScene(scene_);
+    scene_ = build_embree_scene(device_, ptrs);
+
+    if (ocean_water >= 0 && !ocean_flat) {
+        MeshRecord rec;
+        rec.vertices = patch_vertices;
+        rec.triangles = patch_triangles;
+        patch_zmin = kInf; patch_zmax = -kInf;
+        for (size_t i = 2; i < patch_vertices.size(); i += 3) {
+            patch_zmin = std::min(patch_zmin, double(patch_vertices[i]));
+            patch_zmax = std::max(patch_zmax, double(patch_vertices[i]));
+        }
+        if (patch_scene_) rtcReleaseScene(patch_scene_);
+        patch_scene_ = build_embree_scene(device_, {&rec});
+        grow(patch_x0, patch_y0, patch_zmin);
+        grow(patch_x0 + patch_lx, patch_y0 + patch_ly, patch_zmax);
+        extent_ = std::max(1e-3, length(hi - lo));
+        eps_ = 1e-6 * extent_;
+    }
+    for (auto& c : cameras) c.medium = medium_at(c.position);
+    for (auto& r : radiometers) r.medium = medium_at(r.position);
+}
+
+bool Scene::intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit) const {
+    double tol = 1e-6 * extent_;
+    double t0, t1;
+    if (std::fabs(d.z) < 1e-12) {
+        if (o.z < patch_zmin - tol || o.z > patch_zmax + tol) return false;
+        t0 = 0.0; t1 = tmax;
+    } else {
+        double ta = (patch_zmin - tol - o.z) / d.z, tb = (patch_zmax + tol - o.z) / d.z;
+        t0 = std::max(0.0, std::min(ta, tb));
+        t1 = std::min(tmax, std::max(ta, tb));
+    }
+    if (!(t0 < t1)) return false;
+    // Walk the periodic tiles the ray crosses inside the slab of wave heights (2-D DDA).
+    Vec3 p = o + d * t0;
+    long i = long(std::floor((p.x - patch_x0) / patch_lx));
+    long j = long(std::floor((p.y - patch_y0) / patch_ly));
+    double t_cur = t0;
+    const int kMaxTiles = 100000;  // beyond this a near-horizontal ray is treated as passing
+    for (int step = 0; step < kMaxTiles; ++step) {
+        double tx = kInf, ty = kInf;
+        if (d.x > 0) tx = (patch_x0 + (i + 1) * patch_lx - o.x) / d.x;
+        else if (d.x < 0) tx = (patch_x0 + i * patch_lx - o.x) / d.x;
+        if (d.y > 0) ty = (patch_y0 + (j + 1) * patch_ly - o.y) / d.y;
+        else if (d.y < 0) ty = (patch_y0 + j * patch_ly - o.y) / d.y;
+        double t_exit = std::min({tx, ty, t1});
+        // Trace in the patch's own frame from the point where the ray enters this tile.
+        Vec3 shift(double(i) * patch_lx, double(j) * patch_ly, 0.0);
+        Vec3 local = o + d * t_cur - shift;
+        RTCIntersectContext ctx;
+        rtcInitIntersectContext(&ctx);
+        RTCRayHit rh = make_rayhit(local, d, 0.0, (t_exit - t_cur) + tol);
+        rtcIntersect1(patch_scene_, &ctx, &rh);
+        if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
+            double t = t_cur + double(rh.ray.tfar);
+            if (t > 0.0 && t < tmax) {
+                const uint32_t* tri = &patch_triangles[3 * rh.hit.primID];
+                auto v = [&](uint32_t k) { return Vec3(patch_vertices[3 * k], patch_vertices[3 * k + 1], patch_vertices[3 * k + 2]); };
+                Vec3 n = normalize(cross(v(tri[1]) - v(tri[0]), v(tri[2]) - v(tri[0])));
+                if (n.z < 0) n = -n;  // water lies below the surface: outward is up
+                hit->valid = true; hit->t = t; hit->n = n;
+                hit->kind = SurfaceKind::kWaterBoundary; hit->index = ocean_water;
+                return true;
+            }
+        }
+        if (t_exit >= t1) return false;
+        if (tx <= ty) i += d.x > 0 ? 1 : -1; else j += d.y > 0 ? 1 : -1;
+        t_cur = t_exit;
+    }
+    return false;
+}
+
+Hit Scene::intersect(const Vec3& o, const Vec3& d) const {
+    Hit hit;
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHit rh = make_rayhit(o, d, 0.0, kInf);
+    rtcIntersect1(scene_, &ctx, &rh);
+    if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
+        const MeshRecord& m = meshes[rh.hit.geomID];
+        hit.valid = true;
+        hit.t = rh.ray.tfar;
+        hit.n = triangle_normal(m, rh.hit.primID);
+        hit.kind = m.kind;
+        hit.index = m.index;
+    }
+    if (ocean_water >= 0) {
+        if (ocean_flat) {
+            if (d.z != 0.0) {
+                double t = (ocean_z - o.z) / d.z;
+                if (t > 0.0 && t < hit.t) {
+                    hit.valid = true; hit.t = t; hit.n = Vec3(0, 0, 1);
+                    hit.kind = SurfaceKind::kWaterBoundary; hit.index = ocean_water;
+                }
+            }
+        } else {
+            Hit ph;
+            if (intersect_patch(o, d, hit.t, &ph)) hit = ph;
+        }
+        if (has_bottom && d.z != 0.0) {
+            double t = (bottom_z - o.z) / d.z;
+            if (t > 0.0 && t < hit.t) {
+                hit.valid = true; hit.t = t; hit.n = Vec3(0, 0, 1);
+                hit.kind = SurfaceKind::kOpaque; hit.index = bottom_material;
+            }
+        }
+    }
+    return hit;
+}
+
+bool Scene::occluded(const Vec3& o, const Vec3& d) const {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHit rh = make_rayhit(o, d, 0.0, kInf);
+    rtcOccluded1(scene_, &ctx, &rh.ray);
+    if (rh.ray.tfar < 0.0f) return true;
+    if (ocean_water >= 0) {
+        Hit h;
+        if (ocean_flat) {
+            if (d.z != 0.0 && (ocean_z - o.z) / d.z > 0.0) return true;
+        } else if (intersect_patch(o, d, kInf, &h)) {
+            return true;
+        }
+        if (has_bottom && d.z != 0.0 && (bottom_z - o.z) / d.z > 0.0) return true;
+    }
+    return false;
+}
+
+int Scene::medium_at(const Vec3& p) const {
+    // Cast a slightly tilted ray upwards; the first water boundary it meets tells whether p
+    // is inside (leaving through the boundary) or outside. Opaque surfaces are passed through.
+    Vec3 d = normalize(Vec3(0.00123, 0.00071, 1.0));
+    Vec3 o = p;
+    for (int k = 0; k < 10000; ++k) {
+        Hit h = intersect(o, d);
+        if (!h.valid) return -1;
+        if (h.kind == SurfaceKind::kWaterBoundary) return dot(d, h.n) > 0.0 ? h.index : -1;
+        Vec3 x = o + d * h.t;
+        o = x + d * offset_for(x);
+    }
+    return -1;
+}
+
+Spectrum Scene::sky_radiance(const Vec3& d) const {
+    Spectrum s;
+    if (sky_type == 0) return s;
+    if (d.z <= 0.0 && !sky_full_sphere) return s;
+    double f = sky_type == 2 ? (1.0 + 2.0 * d.z) : 1.0;
+    for (int k = 0; k < nbands; ++k) s.v[k] = sky_l0.v[k] * f;
+    return s;
+}
+
+Vec3 Scene::sample_sun(double u1, double u2) const {
+    return direction_around(sun_dir, u1 * (1.0 - sun_cos_half), 2.0 * kPi * u2);
+}
+
+}  // namespace photic
