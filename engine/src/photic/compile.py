@@ -1,0 +1,110 @@
+"""Turns a validated scene description into the compiled core's scene.
+
+This is the only place that knows both sides: the description (photic.scene, plain Python)
+and the core's builder calls (photic._core). Large band lists are split into groups of at
+most ``_core.MAX_BANDS`` bands; each group is a separate compiled scene sharing the geometry.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import _core
+from .phase import make_core_phase
+from .scene import Scene
+
+QUANTITY_CODES = {"Ed": 0, "Eu": 1, "Eo": 2, "Eod": 3, "Eou": 4,
+                  "radiance": 5, "radiance_distribution": 6}
+SKY_CODES = {"black": 0, "uniform": 1, "cardioidal": 2}
+MAX_BANDS = int(_core.MAX_BANDS)
+
+
+def band_groups(nbands: int) -> list[slice]:
+    """Slices of at most MAX_BANDS bands covering all bands."""
+    return [slice(i, min(i + MAX_BANDS, nbands)) for i in range(0, nbands, MAX_BANDS)]
+
+
+def _oriented_up(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Triangles of a height-field patch wound so their normals point up (air side)."""
+    v = vertices[triangles]
+    nz = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])[:, 2]
+    tri = triangles.copy()
+    flip = nz < 0
+    tri[flip] = tri[flip][:, [0, 2, 1]]
+    return tri
+
+
+def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = None,
+                  max_depth: int | None = None) -> _core.Scene:
+    """Build and commit the core scene for one group of bands."""
+    bands = bands or slice(0, len(scene.bands))
+    nb = len(range(*bands.indices(len(scene.bands))))
+    if not 1 <= nb <= MAX_BANDS:
+        raise ValueError(f"a band group must hold 1..{MAX_BANDS} bands, got {nb}")
+    sel = lambda arr: np.ascontiguousarray(np.asarray(arr, dtype=np.float64)[bands])
+
+    core = _core.Scene()
+    core.nbands = nb
+    core.seed = int(scene.settings.seed if seed is None else seed) & ((1 << 64) - 1)
+    core.max_depth = int(scene.settings.max_depth if max_depth is None else max_depth)
+
+    mat_index = {}
+    for name, mat in scene.materials.items():
+        mat_index[name] = core.add_material(sel(mat.reflectance))
+
+    water_index = {}
+    for w in scene.water:
+        comps = []
+        for comp in w.iops.scattering:
+            pid = core.add_phase(make_core_phase(comp.phase.type, comp.phase.params))
+            comps.append((pid, sel(comp.b)))
+        if not comps:  # no scattering component: a purely absorbing body
+            comps.append((core.add_phase(make_core_phase("isotropic")), np.zeros(nb)))
+        water_index[w.name] = core.add_water(float(w.ior), sel(w.iops.absorption), comps)
+
+    for m in scene.meshes:
+        core.add_mesh(np.asarray(m.mesh.vertices, np.float32), np.asarray(m.mesh.triangles, np.uint32),
+                      0, mat_index[m.material])
+
+    for w in scene.water:
+        wi = water_index[w.name]
+        if w.type == "mesh":
+            core.add_mesh(np.asarray(w.mesh.vertices, np.float32),
+                          np.asarray(w.mesh.triangles, np.uint32), 1, wi)
+        else:
+            surf = w.surface
+            if surf.kind == "flat":
+                core.set_ocean_flat(wi, float(surf.z))
+                zmean = float(surf.z)
+            else:
+                v = np.asarray(surf.mesh.vertices, np.float64)
+                tri = _oriented_up(v, np.asarray(surf.mesh.triangles, np.int64))
+                zmean = float(surf.z)
+                core.set_ocean_patch(wi, v.astype(np.float32), tri.astype(np.uint32),
+                                     float(v[:, 0].min()), float(v[:, 1].min()),
+                                     float(surf.period[0]), float(surf.period[1]), zmean)
+            if w.bottom_depth is not None:
+                core.set_bottom(zmean - float(w.bottom_depth), mat_index[w.bottom_material])
+
+    if scene.sun is not None:
+        alpha = np.radians(scene.sun.angular_diameter_deg) / 2.0
+        # Uniform disk: irradiance normal to the beam = L * pi * sin^2(alpha).
+        radiance = sel(scene.sun.irradiance) / (np.pi * np.sin(alpha) ** 2)
+        core.set_sun(tuple(float(c) for c in scene.sun.direction), radiance, float(np.cos(alpha)))
+
+    sky = scene.sky
+    l0 = sel(sky.radiance_scale) if sky.radiance_scale is not None else np.zeros(nb)
+    core.set_sky(SKY_CODES[sky.type], l0, bool(getattr(sky, "full_sphere", False)))
+
+    for cam in scene.cameras:
+        core.add_camera(cam.type == "orthographic", tuple(map(float, cam.position)),
+                        tuple(map(float, cam.direction)), tuple(map(float, cam.up)),
+                        float(cam.fov_deg), float(cam.ortho_width),
+                        int(cam.resolution[0]), int(cam.resolution[1]),
+                        1 if cam.filter_type == "gaussian" else 0, float(cam.filter_width_px))
+
+    for r in scene.all_radiometers():
+        core.add_radiometer(QUANTITY_CODES[r.quantity], tuple(map(float, r.position)),
+                            tuple(map(float, r.direction)), float(r.half_angle_deg),
+                            int(r.polar_bins), int(r.azimuth_bins))
+    core.commit()
+    return core

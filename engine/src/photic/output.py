@@ -1,0 +1,105 @@
+"""Files written by a render: multilayer OpenEXR images and radiometer tables (CSV, JSON)."""
+from __future__ import annotations
+
+import csv
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .render import RenderResult
+
+
+def _safe(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
+
+
+def write_exr(path, result: RenderResult, camera: str) -> Path:
+    """One camera as a multilayer EXR: radiance.<band>, variance.<band>, samples."""
+    import OpenEXR  # imported late: never needed inside Blender, where Blender writes EXR
+
+    img = result.images[camera]
+    channels = {}
+    for k, band in enumerate(result.bands):
+        channels[f"radiance.{band.name}"] = np.ascontiguousarray(img.mean[..., k], dtype=np.float32)
+        channels[f"variance.{band.name}"] = np.ascontiguousarray(img.variance[..., k], dtype=np.float32)
+    channels["samples"] = np.full(img.mean.shape[:2], float(img.samples), dtype=np.float32)
+    header = {
+        "compression": OpenEXR.ZIP_COMPRESSION,
+        "type": OpenEXR.scanlineimage,
+        "photic:version": __version__,
+        "photic:scene": result.scene_name,
+        "photic:camera": camera,
+        "photic:units.radiance": img.units,
+        "photic:units.variance": "square of radiance units; variance of the per-pixel mean",
+        "photic:bands": json.dumps([{"name": b.name, "center_nm": b.center_nm, "width_nm": b.width_nm}
+                                    for b in result.bands]),
+        "photic:seed": str(result.stats.get("seed", "")),
+    }
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with OpenEXR.File(header, channels) as f:
+        f.write(str(path))
+    return path
+
+
+def radiometer_rows(result: RenderResult) -> list[dict]:
+    """One row per radiometer, bin and band."""
+    rows = []
+    for r in result.radiometers:
+        nbins = r.mean.shape[0]
+        for b in range(nbins):
+            for k, band in enumerate(result.bands):
+                row = {"name": r.name, "quantity": r.quantity,
+                       "x_m": r.position[0], "y_m": r.position[1], "z_m": r.position[2],
+                       "medium": r.medium, "band": band.name, "center_nm": band.center_nm,
+                       "bin": b, "value": float(r.mean[b, k]), "stderr": float(r.stderr[b, k]),
+                       "samples": r.samples, "units": r.units}
+                if r.bins:
+                    ip, ia = divmod(b, r.bins[1])
+                    row["polar_deg"] = (ip + 0.5) * 180.0 / r.bins[0]
+                    row["azimuth_deg"] = (ia + 0.5) * 360.0 / r.bins[1]
+                rows.append(row)
+    return rows
+
+
+def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = None) -> tuple[Path, Path]:
+    """Radiometer values and standard errors as CSV and JSON; returns both paths."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stem = stem or _safe(result.scene_name)
+    rows = radiometer_rows(result)
+    csv_path = out_dir / f"{stem}_radiometers.csv"
+    fields = ["name", "quantity", "x_m", "y_m", "z_m", "medium", "band", "center_nm", "bin",
+              "polar_deg", "azimuth_deg", "value", "stderr", "samples", "units"]
+    with open(csv_path, "w", newline="") as f:
+        f.write(f"# photic {__version__}; scene {result.scene_name}; seed {result.stats.get('seed')}; "
+                "value = Monte Carlo mean, stderr = its standard error\n")
+        w = csv.DictWriter(f, fieldnames=fields)
+        w.writeheader()
+        for row in rows:
+            w.writerow({k: row.get(k, "") for k in fields})
+    json_path = out_dir / f"{stem}_radiometers.json"
+    doc = {"photic_version": __version__, "scene": result.scene_name,
+           "bands": [{"name": b.name, "center_nm": b.center_nm, "width_nm": b.width_nm} for b in result.bands],
+           "stats": result.stats, "cancelled": result.cancelled,
+           "radiometers": [{"name": r.name, "quantity": r.quantity, "position_m": r.position.tolist(),
+                            "medium": r.medium, "units": r.units, "samples": r.samples,
+                            "bins": list(r.bins) if r.bins else None,
+                            "value": r.mean.tolist(), "stderr": r.stderr.tolist()}
+                           for r in result.radiometers]}
+    json_path.write_text(json.dumps(doc, indent=1))
+    return csv_path, json_path
+
+
+def write_outputs(out_dir, result: RenderResult) -> dict[str, list[Path]]:
+    """Every camera as EXR and the radiometer tables; returns the written paths."""
+    out_dir = Path(out_dir)
+    written = {"images": [], "tables": []}
+    for cam in result.images:
+        written["images"].append(write_exr(out_dir / f"{_safe(result.scene_name)}_{_safe(cam)}.exr", result, cam))
+    if result.radiometers:
+        written["tables"].extend(write_radiometer_tables(out_dir, result))
+    return written

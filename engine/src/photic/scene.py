@@ -1,0 +1,1313 @@
+"""Photic scene description: data classes, JSON loader and validator (format version 1).
+
+The format is specified in ``docs/scene-format.md``; its JSON Schema is
+``photic/schema/scene.schema.json``. A scene is checked in two stages:
+
+1. ``Scene.from_dict`` checks the JSON structure against the schema (types, ranges, unknown
+   keys) and builds the objects, broadcasting single numbers to all bands;
+2. ``Scene.validate`` runs every semantic check on the objects (per-band lengths, closed
+   meshes, references, unique names, ...), so a scene built in Python is checked the same way.
+
+Every problem is reported as a ``SceneError`` naming the object and the field.
+
+Conventions: lengths in m, angles in degrees, coefficients in m^-1; right-handed coordinates
+with z up.
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import math
+import numbers
+from dataclasses import dataclass, field, fields, is_dataclass
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "FORMAT_VERSION", "PHASE_FUNCTION_PARAMS", "QUANTITIES", "SceneError", "Band", "Material",
+    "PhaseFunction", "ScatteringComponent", "IOPs", "TriangleMesh", "MeshObject",
+    "OceanSurface", "WaterBody", "Sun", "Sky", "Camera", "Radiometer", "RadiometerArray",
+    "Settings", "Scene", "load_scene", "save_scene",
+]
+
+FORMAT_VERSION = 1
+
+#: Phase function types and the names of their parameters.
+PHASE_FUNCTION_PARAMS: dict[str, tuple[str, ...]] = {
+    "petzold": (),
+    "fournier_forand": ("backscatter_fraction",),
+    "henyey_greenstein": ("g",),
+    "pure_water": (),
+    "isotropic": (),
+}
+
+#: Quantities a radiometer can measure.
+QUANTITIES = ("Ed", "Eu", "Eo", "Eod", "Eou", "radiance", "radiance_distribution")
+
+WATER_TYPES = ("mesh", "ocean")
+SURFACE_KINDS = ("flat", "patch")
+SKY_TYPES = ("black", "uniform", "cardioidal")
+CAMERA_TYPES = ("perspective", "orthographic")
+FILTER_TYPES = ("box", "gaussian")
+INTEGRATORS = ("path", "hybrid")
+
+# Default filter width per filter type (pixels).
+_FILTER_DEFAULT_WIDTH = {"box": 1.0, "gaussian": 1.5}
+
+# A triangle is degenerate when its area is below this times the squared bounding-box diagonal.
+_DEGENERATE_AREA_FRACTION = 1e-12
+
+
+class SceneError(ValueError):
+    """An invalid scene: names the object (e.g. ``water 'sea'``) and the field.
+
+    Parameters
+    ----------
+    obj : str
+        The object, e.g. ``"water 'sea'"``, ``"settings"`` or ``"scene"``.
+    field : str
+        The field path inside the object, e.g. ``"iops.absorption[0]"``.
+    message : str
+        What is wrong.
+    """
+
+    def __init__(self, obj: str, field: str, message: str):
+        # args are the constructor arguments so that the error survives pickling.
+        super().__init__(obj, field, message)
+        self.obj = obj
+        self.field = field
+        self.message = message
+
+    def __str__(self) -> str:
+        return f"{self.obj}: field '{self.field}': {self.message}"
+
+
+# ----------------------------------------------------------------------------------------
+# Small helpers shared by the data classes, the builder and the checks
+# ----------------------------------------------------------------------------------------
+
+def _values_equal(a: Any, b: Any) -> bool:
+    """Compare nested scene values; numpy arrays compare by shape and value."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        try:
+            a, b = np.asarray(a), np.asarray(b)
+        except (TypeError, ValueError):
+            return False
+        return a.shape == b.shape and bool(np.array_equal(a, b, equal_nan=a.dtype.kind == "f"
+                                                         and b.dtype.kind == "f"))
+    if is_dataclass(a) or is_dataclass(b):
+        return type(a) is type(b) and all(
+            _values_equal(getattr(a, f.name), getattr(b, f.name)) for f in fields(a))
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(_values_equal(x, y) for x, y in zip(a, b))
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_values_equal(a[k], b[k]) for k in a)
+    return bool(a == b)
+
+
+class _ArrayEq:
+    """Mixin: ``==`` that works for data classes holding numpy arrays."""
+
+    def __eq__(self, other: object) -> bool:
+        return _values_equal(self, other)
+
+    __hash__ = None  # mutable, like the default data class
+
+
+def _as_floats(x: Any) -> Any:
+    """A float64 copy of ``x``, or ``x`` unchanged when it is not numeric (validate reports it)."""
+    if x is None:
+        return None
+    try:
+        return np.array(x, dtype=np.float64)
+    except (TypeError, ValueError):
+        return x
+
+
+def _unit(v: Any) -> Any:
+    """``v / |v|``; ``v`` itself if already unit length (keeps round trips bit-exact) or zero."""
+    if not isinstance(v, np.ndarray) or v.shape != (3,):
+        return v
+    n = float(np.linalg.norm(v))
+    if n == 0.0 or not math.isfinite(n) or abs(n - 1.0) <= 4 * np.finfo(np.float64).eps:
+        return v
+    return v / n
+
+
+def _show(x: Any) -> str:
+    """Short text for a value in an error message."""
+    if isinstance(x, bool) or x is None:
+        return repr(x)
+    if isinstance(x, numbers.Integral):
+        return str(int(x))
+    if isinstance(x, numbers.Real):
+        return repr(float(x))
+    if isinstance(x, np.ndarray):
+        x = x.tolist()
+    text = repr(x)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _num(x: float) -> str:
+    """A bound in an error message: integers without a decimal point."""
+    return str(int(x)) if float(x).is_integer() and abs(x) < 1e16 else repr(float(x))
+
+
+def _range_text(lo=None, hi=None, lo_open=False, hi_open=False, integer=False) -> str:
+    """Describe an allowed range, e.g. ``a finite number in (-1, 1)``."""
+    kind = "an integer" if integer else "a finite number"
+    if lo is not None and hi is not None:
+        return f"{kind} in {'(' if lo_open else '['}{_num(lo)}, {_num(hi)}{')' if hi_open else ']'}"
+    if lo is not None:
+        return f"{kind} {'>' if lo_open else '>='} {_num(lo)}"
+    if hi is not None:
+        return f"{kind} {'<' if hi_open else '<='} {_num(hi)}"
+    return kind
+
+
+def _is_real(x: Any) -> bool:
+    return isinstance(x, numbers.Real) and not isinstance(x, bool)
+
+
+def _check_real(obj, fld, x, lo=None, hi=None, *, lo_open=False, hi_open=False) -> None:
+    """Require a finite real number in the given range."""
+    ok = _is_real(x) and math.isfinite(x)
+    if ok and lo is not None:
+        ok = x > lo if lo_open else x >= lo
+    if ok and hi is not None:
+        ok = x < hi if hi_open else x <= hi
+    if not ok:
+        raise SceneError(obj, fld, f"must be {_range_text(lo, hi, lo_open, hi_open)}, "
+                                   f"got {_show(x)}")
+
+
+def _check_int(obj, fld, x, lo, hi) -> None:
+    """Require an integer (an integral float is accepted) in ``[lo, hi]``."""
+    ok = (isinstance(x, numbers.Integral) and not isinstance(x, bool)) or (
+        _is_real(x) and math.isfinite(x) and float(x).is_integer())
+    if not (ok and lo <= x <= hi):
+        raise SceneError(obj, fld, f"must be {_range_text(lo, hi, integer=True)}, got {_show(x)}")
+
+
+def _check_choice(obj, fld, x, choices) -> None:
+    if not isinstance(x, str) or x not in choices:
+        raise SceneError(obj, fld, f"must be one of {', '.join(map(repr, choices))}, "
+                                   f"got {_show(x)}")
+
+
+def _check_per_band(obj, fld, a, nbands, lo=0.0, hi=None) -> None:
+    """Require a float array with one finite value in ``[lo, hi]`` per band."""
+    if not isinstance(a, np.ndarray) or a.ndim != 1 or a.dtype.kind not in "fiu":
+        raise SceneError(obj, fld, f"must be a list of {nbands} number(s), one per band, "
+                                   f"got {_show(a)}")
+    if a.shape[0] != nbands:
+        raise SceneError(obj, fld, f"has {a.shape[0]} entries but the scene has {nbands} "
+                                   f"band(s)")
+    for i, x in enumerate(a.tolist()):
+        _check_real(obj, f"{fld}[{i}]", x, lo, hi)
+
+
+def _check_vec3(obj, fld, v, nonzero=False) -> None:
+    """Require a finite 3-vector (not zero if ``nonzero``)."""
+    if (not isinstance(v, np.ndarray) or v.shape != (3,) or v.dtype.kind not in "fiu"
+            or not np.all(np.isfinite(v))):
+        raise SceneError(obj, fld, f"must be 3 finite numbers [x, y, z], got {_show(v)}")
+    if nonzero and not np.any(v):
+        raise SceneError(obj, fld, "must not be the zero vector")
+
+
+def _check_name(kind: str, index: int, name: Any, seen: dict[str, str]) -> str:
+    """Require a non-empty, unique name; return the object's label for error messages."""
+    label = _label(kind, name, index)
+    if not isinstance(name, str) or not name:
+        raise SceneError(label, "name", f"must be a non-empty string, got {_show(name)}")
+    if name in seen:
+        raise SceneError(label, "name", f"duplicate name: also used by {seen[name]}")
+    seen[name] = f"{kind}[{index}]"
+    return label
+
+
+def _label(kind: str, name: Any, index: int) -> str:
+    """``water 'sea'``, or ``water[2]`` when the object has no usable name."""
+    return f"{kind} '{name}'" if isinstance(name, str) and name else f"{kind}[{index}]"
+
+
+# ----------------------------------------------------------------------------------------
+# Data classes
+# ----------------------------------------------------------------------------------------
+
+@dataclass(eq=False)
+class Band(_ArrayEq):
+    """A spectral band: name, centre and width in nm."""
+
+    name: str
+    center_nm: float
+    width_nm: float
+
+
+@dataclass(eq=False)
+class Material(_ArrayEq):
+    """A Lambertian material: reflectance per band in [0, 1]."""
+
+    name: str
+    reflectance: np.ndarray
+
+    def __post_init__(self):
+        self.reflectance = _as_floats(self.reflectance)
+
+
+@dataclass(eq=False)
+class PhaseFunction(_ArrayEq):
+    """A phase function: ``type`` (see ``PHASE_FUNCTION_PARAMS``) and its parameters.
+
+    Examples
+    --------
+    >>> PhaseFunction("henyey_greenstein", {"g": 0.9})
+    >>> PhaseFunction("fournier_forand", {"backscatter_fraction": 0.0183})
+    """
+
+    type: str
+    params: dict = field(default_factory=dict)
+
+
+@dataclass(eq=False)
+class ScatteringComponent(_ArrayEq):
+    """One scattering component: coefficient ``b`` per band (m^-1) and its phase function."""
+
+    b: np.ndarray
+    phase: PhaseFunction
+
+    def __post_init__(self):
+        self.b = _as_floats(self.b)
+
+
+@dataclass(eq=False)
+class IOPs(_ArrayEq):
+    """Inherent optical properties: absorption per band (m^-1) and scattering components."""
+
+    absorption: np.ndarray
+    scattering: list[ScatteringComponent] = field(default_factory=list)
+
+    def __post_init__(self):
+        self.absorption = _as_floats(self.absorption)
+
+    @property
+    def total_scattering(self) -> np.ndarray:
+        """Total scattering coefficient per band (m^-1): the sum of the components' ``b``."""
+        total = np.zeros_like(np.asarray(self.absorption, dtype=np.float64))
+        for component in self.scattering:
+            total = total + component.b
+        return total
+
+
+@dataclass(eq=False)
+class TriangleMesh(_ArrayEq):
+    """A triangle mesh: ``vertices`` float64 (N, 3) in m, ``triangles`` int64 (M, 3).
+
+    Triangles are counter-clockwise seen from outside: the normal
+    ``(v1 - v0) x (v2 - v0)`` points outwards.
+    """
+
+    vertices: np.ndarray
+    triangles: np.ndarray
+
+    def __post_init__(self):
+        self.vertices = _as_floats(self.vertices)
+        if isinstance(self.vertices, np.ndarray) and self.vertices.size == 0:
+            self.vertices = self.vertices.reshape(0, 3)
+        try:
+            t = np.array(self.triangles)
+        except (TypeError, ValueError):
+            return
+        if t.size == 0:
+            t = t.reshape(0, 3).astype(np.int64)
+        # Integral floats (e.g. from a numeric library) are accepted as indices.
+        if t.dtype.kind == "f" and np.all(np.isfinite(t)) and np.all(t == np.round(t)):
+            t = t.astype(np.int64)
+        if t.dtype.kind in "iu":
+            t = t.astype(np.int64)
+        self.triangles = t
+
+
+@dataclass(eq=False)
+class MeshObject(_ArrayEq):
+    """An opaque object: a mesh and the name of its material."""
+
+    name: str
+    mesh: TriangleMesh
+    material: str
+
+
+@dataclass(eq=False)
+class OceanSurface(_ArrayEq):
+    """The surface of an ocean.
+
+    ``kind`` is ``"flat"`` (the plane ``z``) or ``"patch"`` (the height-field ``mesh``
+    repeated with ``period`` (Lx, Ly) in m; ``z`` is then the mean height of its vertices,
+    computed here).
+    """
+
+    kind: str
+    z: float = 0.0
+    mesh: TriangleMesh | None = None
+    period: tuple[float, float] | None = None
+
+    def __post_init__(self):
+        if self.period is not None and not isinstance(self.period, str):
+            try:
+                self.period = tuple(float(p) for p in self.period)
+            except (TypeError, ValueError):
+                pass
+        # For a patch, z is derived so that the bottom depth has a well-defined reference.
+        if self.kind == "patch" and isinstance(self.mesh, TriangleMesh):
+            v = self.mesh.vertices
+            if isinstance(v, np.ndarray) and v.ndim == 2 and v.shape[1] == 3 and len(v):
+                self.z = float(np.mean(v[:, 2]))
+
+
+@dataclass(eq=False)
+class WaterBody(_ArrayEq):
+    """A water body: type ``"mesh"`` (closed ``mesh``) or ``"ocean"`` (``surface``, optional
+    flat bottom at ``surface.z - bottom_depth`` made of ``bottom_material``)."""
+
+    name: str
+    type: str
+    iops: IOPs
+    ior: float = 1.34
+    mesh: TriangleMesh | None = None
+    surface: OceanSurface | None = None
+    bottom_depth: float | None = None
+    bottom_material: str | None = None
+
+
+@dataclass(eq=False)
+class Sun(_ArrayEq):
+    """The sun: a disk of uniform radiance; ``irradiance`` per band normal to its direction."""
+
+    zenith_deg: float
+    azimuth_deg: float
+    irradiance: np.ndarray
+    angular_diameter_deg: float = 0.53
+
+    def __post_init__(self):
+        self.irradiance = _as_floats(self.irradiance)
+
+    @property
+    def direction(self) -> np.ndarray:
+        """Unit vector pointing towards the sun (z up, azimuth from +x towards +y)."""
+        theta, phi = math.radians(self.zenith_deg), math.radians(self.azimuth_deg)
+        return np.array([math.sin(theta) * math.cos(phi), math.sin(theta) * math.sin(phi),
+                         math.cos(theta)])
+
+
+@dataclass(eq=False)
+class Sky(_ArrayEq):
+    """The sky over the upper hemisphere.
+
+    ``radiance_scale`` is L0 per band: ``uniform`` has L = L0; ``cardioidal`` has
+    L(theta) = L0 (1 + 2 cos theta), theta the zenith angle; ``black`` has None.
+    """
+
+    type: str
+    radiance_scale: np.ndarray | None = None
+
+    def __post_init__(self):
+        self.radiance_scale = _as_floats(self.radiance_scale)
+
+
+@dataclass(eq=False)
+class Camera(_ArrayEq):
+    """A camera; ``direction`` is normalised, ``up`` is kept as given."""
+
+    name: str
+    type: str
+    position: np.ndarray
+    direction: np.ndarray
+    up: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    fov_deg: float = 40.0
+    ortho_width: float = 2.0
+    resolution: tuple[int, int] = (64, 64)
+    filter_type: str = "box"
+    filter_width_px: float = 1.0
+
+    def __post_init__(self):
+        self.position = _as_floats(self.position)
+        self.direction = _unit(_as_floats(self.direction))
+        self.up = _as_floats(self.up)
+        if isinstance(self.resolution, (list, np.ndarray)):
+            self.resolution = tuple(self.resolution.tolist() if isinstance(
+                self.resolution, np.ndarray) else self.resolution)
+
+
+@dataclass(eq=False)
+class Radiometer(_ArrayEq):
+    """A point radiometer measuring ``quantity`` (see ``QUANTITIES``) at ``position``."""
+
+    name: str
+    quantity: str
+    position: np.ndarray
+    direction: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
+    half_angle_deg: float = 12.9
+    polar_bins: int = 18
+    azimuth_bins: int = 24
+
+    def __post_init__(self):
+        self.position = _as_floats(self.position)
+        self.direction = _unit(_as_floats(self.direction))
+
+
+@dataclass(eq=False)
+class RadiometerArray(_ArrayEq):
+    """Radiometers at ``positions`` (N, 3), one per position and quantity.
+
+    ``direction`` and ``half_angle_deg`` default (None) to the Radiometer defaults.
+    """
+
+    name: str
+    quantities: list[str]
+    positions: np.ndarray
+    direction: np.ndarray | None = None
+    half_angle_deg: float | None = None
+
+    def __post_init__(self):
+        self.positions = _as_floats(self.positions)
+        self.direction = _unit(_as_floats(self.direction))
+
+    def radiometers(self) -> list[Radiometer]:
+        """The radiometers, named ``f"{name}[{i}].{q}"``, position-major.
+
+        Returns
+        -------
+        list of Radiometer
+            For each position i, one radiometer per quantity, in the order of ``quantities``.
+        """
+        extra = {}
+        if self.direction is not None:
+            extra["direction"] = self.direction
+        if self.half_angle_deg is not None:
+            extra["half_angle_deg"] = self.half_angle_deg
+        return [Radiometer(name=f"{self.name}[{i}].{q}", quantity=q, position=p, **extra)
+                for i, p in enumerate(self.positions) for q in self.quantities]
+
+
+@dataclass(eq=False)
+class Settings(_ArrayEq):
+    """Rendering settings (see docs/scene-format.md for the limits)."""
+
+    integrator: str = "path"
+    samples: int = 16
+    radiometer_samples: int = 65536
+    seed: int = 0
+    max_depth: int = 256
+    threads: int = 0
+
+
+def _default_bands() -> list[Band]:
+    return [Band("550", 550.0, 10.0)]
+
+
+@dataclass(eq=False)
+class Scene(_ArrayEq):
+    """A complete Photic scene. Build it in Python or with ``Scene.from_dict`` /
+    ``load_scene``; check it with ``validate``."""
+
+    name: str = "scene"
+    bands: list[Band] = field(default_factory=_default_bands)
+    materials: dict[str, Material] = field(default_factory=dict)
+    meshes: list[MeshObject] = field(default_factory=list)
+    water: list[WaterBody] = field(default_factory=list)
+    sun: Sun | None = None
+    sky: Sky = field(default_factory=lambda: Sky("black"))
+    cameras: list[Camera] = field(default_factory=list)
+    radiometers: list[Radiometer] = field(default_factory=list)
+    radiometer_arrays: list[RadiometerArray] = field(default_factory=list)
+    settings: Settings = field(default_factory=Settings)
+
+    def all_radiometers(self) -> list[Radiometer]:
+        """The radiometers followed by those of the expanded radiometer arrays."""
+        result = list(self.radiometers)
+        for array in self.radiometer_arrays:
+            result.extend(array.radiometers())
+        return result
+
+    def validate(self) -> None:
+        """Run every semantic check on the scene.
+
+        Raises
+        ------
+        SceneError
+            For the first problem found, naming the object and the field.
+        """
+        _validate_scene(self)
+
+    @classmethod
+    def from_dict(cls, d: dict, base_dir: str | Path | None = None) -> "Scene":
+        """Build and validate a scene from its JSON structure.
+
+        Parameters
+        ----------
+        d : dict
+            The parsed JSON document.
+        base_dir : str or Path, optional
+            Directory that relative mesh ``file`` paths are relative to (default: the
+            current directory).
+
+        Raises
+        ------
+        SceneError
+            If the document does not follow the schema or the scene is invalid.
+        """
+        if not isinstance(d, dict):
+            raise SceneError("scene", "(document)", f"must be a JSON object, got {_show(d)}")
+        version = d.get("photic_scene")
+        if version is None:
+            raise SceneError("scene", "photic_scene",
+                             f"required field is missing (format version, must be "
+                             f"{FORMAT_VERSION})")
+        if isinstance(version, bool) or version != FORMAT_VERSION:
+            raise SceneError("scene", "photic_scene",
+                             f"unsupported format version {_show(version)}: this Photic reads "
+                             f"version {FORMAT_VERSION}")
+        _check_schema(d)
+        scene = _build_scene(d, Path(base_dir) if base_dir is not None else Path.cwd())
+        scene.validate()
+        return scene
+
+    def to_dict(self) -> dict:
+        """The scene as a JSON-serialisable dict (meshes inline, per-band values as lists)."""
+        return _scene_to_dict(self)
+
+
+# ----------------------------------------------------------------------------------------
+# Semantic checks: one function per kind of object
+# ----------------------------------------------------------------------------------------
+
+def _validate_scene(s: Scene) -> None:
+    if not isinstance(s.name, str):
+        raise SceneError("scene", "name", f"must be a string, got {_show(s.name)}")
+    if not isinstance(s.bands, list) or not s.bands:
+        raise SceneError("scene", "bands", "at least one band is required")
+    seen: dict[str, str] = {}
+    for i, band in enumerate(s.bands):
+        _validate_band(_check_name("band", i, band.name, seen), band)
+    nbands = len(s.bands)
+
+    for key, material in s.materials.items():
+        _validate_material(key, material, nbands)
+
+    seen = {}
+    for i, obj in enumerate(s.meshes):
+        label = _check_name("mesh", i, obj.name, seen)
+        _check_mesh(label, "", obj.mesh)
+        _check_material_ref(label, "material", obj.material, s.materials)
+
+    seen = {}
+    ocean = None
+    for i, water in enumerate(s.water):
+        label = _check_name("water", i, water.name, seen)
+        _validate_water(label, water, nbands, s.materials)
+        if water.type == "ocean":
+            if ocean is not None:
+                raise SceneError(label, "type", f"at most one ocean is allowed, {ocean} is "
+                                                f"already one")
+            ocean = label
+
+    if s.sun is not None:
+        _validate_sun(s.sun, nbands)
+    _validate_sky(s.sky, nbands)
+
+    seen = {}
+    for i, camera in enumerate(s.cameras):
+        _validate_camera(_check_name("camera", i, camera.name, seen), camera)
+
+    seen = {}
+    for i, radiometer in enumerate(s.radiometers):
+        _validate_radiometer(_check_name("radiometer", i, radiometer.name, seen), radiometer)
+    arrays_seen: dict[str, str] = {}
+    for i, array in enumerate(s.radiometer_arrays):
+        label = _check_name("radiometer_array", i, array.name, arrays_seen)
+        _validate_radiometer_array(label, array)
+        # Expanded names share the radiometers' namespace (outputs are keyed by them).
+        for radiometer in array.radiometers():
+            if radiometer.name in seen:
+                raise SceneError(label, "name", f"expands to radiometer '{radiometer.name}', "
+                                                f"which is also {seen[radiometer.name]}")
+            seen[radiometer.name] = f"{label} (expanded)"
+
+    _validate_settings(s.settings)
+
+    if not s.cameras and not seen:
+        raise SceneError("scene", "cameras", "missing sensor: the scene needs at least one "
+                                             "camera or radiometer")
+
+
+def _validate_band(label: str, band: Band) -> None:
+    _check_real(label, "center_nm", band.center_nm, 0, lo_open=True)
+    _check_real(label, "width_nm", band.width_nm, 0, lo_open=True)
+
+
+def _validate_material(key: Any, material: Material, nbands: int) -> None:
+    label = f"material '{key}'"
+    if not isinstance(key, str) or not key:
+        raise SceneError(label, "name", "must be a non-empty string")
+    if not isinstance(material, Material):
+        raise SceneError(label, "type", "must be a Material")
+    if material.name != key:
+        raise SceneError(label, "name", f"is {_show(material.name)} but the material is stored "
+                                        f"under the key '{key}'")
+    _check_per_band(label, "reflectance", material.reflectance, nbands, 0.0, 1.0)
+
+
+def _check_material_ref(label: str, fld: str, name: Any, materials: dict) -> None:
+    if name not in materials:
+        known = ", ".join(repr(k) for k in materials) or "none"
+        raise SceneError(label, fld, f"unknown material {_show(name)} (defined: {known})")
+
+
+def _check_mesh(label: str, prefix: str, mesh: Any) -> None:
+    """Check a mesh: shapes, finite vertices, indices in range, no zero-area triangles.
+
+    ``prefix`` is prepended to the field names (``"surface."`` for an ocean patch).
+    """
+    if not isinstance(mesh, TriangleMesh):
+        raise SceneError(label, f"{prefix}mesh", f"a TriangleMesh is required, got "
+                                                 f"{_show(mesh)}")
+    v, t = mesh.vertices, mesh.triangles
+    if not isinstance(v, np.ndarray) or v.ndim != 2 or v.shape[1] != 3 or v.dtype.kind not in "fiu":
+        raise SceneError(label, f"{prefix}vertices", "must be an (N, 3) array of numbers")
+    if not isinstance(t, np.ndarray) or t.ndim != 2 or t.shape[1] != 3 or t.dtype.kind not in "iu":
+        raise SceneError(label, f"{prefix}triangles", "must be an (M, 3) array of integer "
+                                                      "vertex indices")
+    if len(t) == 0 or len(v) == 0:
+        raise SceneError(label, f"{prefix}triangles", "empty mesh: at least one triangle is "
+                                                      "required")
+    bad = np.flatnonzero(~np.all(np.isfinite(v), axis=1))
+    if len(bad):
+        raise SceneError(label, f"{prefix}vertices[{bad[0]}]", f"must be finite, got "
+                                                              f"{v[bad[0]].tolist()}")
+    bad = np.flatnonzero(np.any((t < 0) | (t >= len(v)), axis=1))
+    if len(bad):
+        raise SceneError(label, f"{prefix}triangles[{bad[0]}]",
+                         f"vertex index out of range 0..{len(v) - 1}: {t[bad[0]].tolist()}")
+    p0, p1, p2 = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
+    area = 0.5 * np.linalg.norm(np.cross(p1 - p0, p2 - p0), axis=1)
+    diagonal2 = float(np.sum((v.max(axis=0) - v.min(axis=0)) ** 2))
+    bad = np.flatnonzero((area < _DEGENERATE_AREA_FRACTION * diagonal2) | (area == 0.0))
+    if len(bad):
+        raise SceneError(label, f"{prefix}triangles[{bad[0]}]",
+                         f"zero-area (degenerate) triangle {t[bad[0]].tolist()}: area "
+                         f"{area[bad[0]]:.3g} m^2 < 1e-12 x (bounding-box diagonal)^2")
+
+
+def _check_closed(label: str, mesh: TriangleMesh) -> None:
+    """Require a watertight, consistently wound mesh with outward normals."""
+    import trimesh  # imported here: loading trimesh is slow and only meshes need it
+
+    tm = trimesh.Trimesh(vertices=mesh.vertices, faces=mesh.triangles, process=False)
+    # Closedness is geometric: vertices duplicated at the same position (seams) are joined.
+    tm.merge_vertices()
+    if not tm.is_watertight:
+        open_edges = len(trimesh.grouping.group_rows(tm.edges_sorted, require_count=1))
+        raise SceneError(label, "triangles", f"water mesh is not closed (watertight): "
+                                             f"{open_edges} edge(s) belong to only one triangle")
+    if not tm.is_winding_consistent:
+        raise SceneError(label, "triangles", "water mesh winding is inconsistent: neighbouring "
+                                             "triangles have opposite orientations")
+    if not tm.volume > 0:
+        raise SceneError(label, "triangles", f"water mesh normals point inwards (enclosed volume "
+                                             f"{tm.volume:.6g} m^3 <= 0); reverse the winding "
+                                             f"of every triangle")
+
+
+def _validate_phase(label: str, prefix: str, phase: Any) -> None:
+    if not isinstance(phase, PhaseFunction):
+        raise SceneError(label, f"{prefix}type", "a PhaseFunction is required")
+    _check_choice(label, f"{prefix}type", phase.type, tuple(PHASE_FUNCTION_PARAMS))
+    expected = PHASE_FUNCTION_PARAMS[phase.type]
+    for key in phase.params:
+        if key not in expected:
+            raise SceneError(label, f"{prefix}{key}", f"is not a parameter of phase function "
+                                                      f"'{phase.type}'")
+    for key in expected:
+        if key not in phase.params:
+            raise SceneError(label, f"{prefix}{key}", f"required by phase function "
+                                                      f"'{phase.type}'")
+    if phase.type == "henyey_greenstein":
+        _check_real(label, f"{prefix}g", phase.params["g"], -1, 1, lo_open=True, hi_open=True)
+    elif phase.type == "fournier_forand":
+        _check_real(label, f"{prefix}backscatter_fraction",
+                    phase.params["backscatter_fraction"], 1e-4, 0.15)
+
+
+def _validate_iops(label: str, iops: Any, nbands: int) -> None:
+    if not isinstance(iops, IOPs):
+        raise SceneError(label, "iops", "an IOPs is required")
+    _check_per_band(label, "iops.absorption", iops.absorption, nbands)
+    for i, component in enumerate(iops.scattering):
+        prefix = f"iops.scattering[{i}]"
+        _check_per_band(label, f"{prefix}.b", component.b, nbands)
+        _validate_phase(label, f"{prefix}.phase.", component.phase)
+
+
+def _validate_water(label: str, w: WaterBody, nbands: int, materials: dict) -> None:
+    _check_choice(label, "type", w.type, WATER_TYPES)
+    _check_real(label, "ior", w.ior, 1.0)
+    _validate_iops(label, w.iops, nbands)
+    if w.type == "mesh":
+        for attr in ("surface", "bottom_depth", "bottom_material"):
+            if getattr(w, attr) is not None:
+                raise SceneError(label, attr, "only allowed for water of type 'ocean'")
+        _check_mesh(label, "", w.mesh)
+        _check_closed(label, w.mesh)
+        return
+    if w.mesh is not None:
+        raise SceneError(label, "mesh", "only allowed for water of type 'mesh'")
+    _validate_surface(label, w.surface)
+    if w.bottom_depth is not None or w.bottom_material is not None:
+        _check_real(label, "bottom_depth", w.bottom_depth, 0, lo_open=True)
+        _check_material_ref(label, "bottom_material", w.bottom_material, materials)
+
+
+def _validate_surface(label: str, surface: Any) -> None:
+    if not isinstance(surface, OceanSurface):
+        raise SceneError(label, "surface", "an ocean needs a surface (OceanSurface)")
+    _check_choice(label, "surface.kind", surface.kind, SURFACE_KINDS)
+    _check_real(label, "surface.z", surface.z)
+    if surface.kind == "flat":
+        for attr in ("mesh", "period"):
+            if getattr(surface, attr) is not None:
+                raise SceneError(label, f"surface.{attr}", "only allowed for surface kind "
+                                                           "'patch'")
+        return
+    _check_mesh(label, "surface.", surface.mesh)
+    period = surface.period
+    if not isinstance(period, tuple) or len(period) != 2:
+        raise SceneError(label, "surface.period", f"must be [Lx, Ly], got {_show(period)}")
+    for i, p in enumerate(period):
+        _check_real(label, f"surface.period[{i}]", p, 0, lo_open=True)
+    v, t = surface.mesh.vertices, surface.mesh.triangles
+    # The patch tiles the plane, so its xy extent must be exactly one period.
+    extent = v[:, :2].max(axis=0) - v[:, :2].min(axis=0)
+    for i, axis in enumerate("xy"):
+        if abs(extent[i] - period[i]) > 1e-6 * period[i]:
+            raise SceneError(label, f"surface.period[{i}]",
+                             f"is {_num(period[i])} but the patch vertices span "
+                             f"{extent[i]:.9g} m in {axis}")
+    # A height field with water below: every triangle must face upwards.
+    normal_z = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])[:, 2]
+    bad = np.flatnonzero(normal_z <= 0)
+    if len(bad):
+        raise SceneError(label, f"surface.triangles[{bad[0]}]",
+                         "must face upwards (normal z > 0): the patch is a height field with "
+                         "the water below it")
+    mean_z = float(np.mean(v[:, 2]))
+    if abs(surface.z - mean_z) > 1e-9 * max(1.0, abs(mean_z)):
+        raise SceneError(label, "surface.z", f"is {surface.z!r} but must equal the mean height "
+                                             f"of the patch vertices, {mean_z!r}")
+
+
+def _validate_sun(sun: Sun, nbands: int) -> None:
+    _check_real("sun", "zenith_deg", sun.zenith_deg, 0, 90, hi_open=True)
+    _check_real("sun", "azimuth_deg", sun.azimuth_deg)
+    _check_per_band("sun", "irradiance", sun.irradiance, nbands)
+    _check_real("sun", "angular_diameter_deg", sun.angular_diameter_deg, 0, 5, lo_open=True)
+
+
+def _validate_sky(sky: Any, nbands: int) -> None:
+    if not isinstance(sky, Sky):
+        raise SceneError("sky", "type", "a Sky is required (Sky('black') for none)")
+    _check_choice("sky", "type", sky.type, SKY_TYPES)
+    if sky.type == "black":
+        if sky.radiance_scale is not None:
+            raise SceneError("sky", "radiance_scale", "must be None for a black sky")
+        return
+    _check_per_band("sky", "radiance_scale", sky.radiance_scale, nbands)
+
+
+def _validate_camera(label: str, c: Camera) -> None:
+    _check_choice(label, "type", c.type, CAMERA_TYPES)
+    _check_vec3(label, "position", c.position)
+    _check_vec3(label, "direction", c.direction, nonzero=True)
+    _check_vec3(label, "up", c.up, nonzero=True)
+    d = c.direction / np.linalg.norm(c.direction)
+    u = c.up / np.linalg.norm(c.up)
+    if np.linalg.norm(np.cross(d, u)) < 1e-6:
+        raise SceneError(label, "up", f"is parallel to the viewing direction {d.tolist()}")
+    _check_real(label, "fov_deg", c.fov_deg, 0, 180, lo_open=True, hi_open=True)
+    _check_real(label, "ortho_width", c.ortho_width, 0, lo_open=True)
+    if not isinstance(c.resolution, tuple) or len(c.resolution) != 2:
+        raise SceneError(label, "resolution", f"must be [width, height], got "
+                                              f"{_show(c.resolution)}")
+    for i, n in enumerate(c.resolution):
+        _check_int(label, f"resolution[{i}]", n, 1, 16384)
+    _check_choice(label, "filter.type", c.filter_type, FILTER_TYPES)
+    _check_real(label, "filter.width_px", c.filter_width_px, 0, lo_open=True)
+
+
+def _validate_radiometer(label: str, r: Radiometer) -> None:
+    _check_choice(label, "quantity", r.quantity, QUANTITIES)
+    _check_vec3(label, "position", r.position)
+    _check_vec3(label, "direction", r.direction, nonzero=True)
+    _check_real(label, "half_angle_deg", r.half_angle_deg, 0, 90, lo_open=True)
+    _check_int(label, "polar_bins", r.polar_bins, 1, 1_000_000)
+    _check_int(label, "azimuth_bins", r.azimuth_bins, 1, 1_000_000)
+
+
+def _validate_radiometer_array(label: str, a: RadiometerArray) -> None:
+    if not isinstance(a.quantities, (list, tuple)) or not a.quantities:
+        raise SceneError(label, "quantities", "at least one quantity is required")
+    for i, q in enumerate(a.quantities):
+        _check_choice(label, f"quantities[{i}]", q, QUANTITIES)
+    p = a.positions
+    if not isinstance(p, np.ndarray) or p.ndim != 2 or p.shape[1] != 3 or len(p) == 0:
+        raise SceneError(label, "positions", "must be a non-empty (N, 3) array of points")
+    for i, point in enumerate(p):
+        _check_vec3(label, f"positions[{i}]", point)
+    if a.direction is not None:
+        _check_vec3(label, "direction", a.direction, nonzero=True)
+    if a.half_angle_deg is not None:
+        _check_real(label, "half_angle_deg", a.half_angle_deg, 0, 90, lo_open=True)
+
+
+def _validate_settings(s: Settings) -> None:
+    _check_choice("settings", "integrator", s.integrator, INTEGRATORS)
+    _check_int("settings", "samples", s.samples, 1, 1_000_000)
+    _check_int("settings", "radiometer_samples", s.radiometer_samples, 1, 10**10)
+    _check_int("settings", "seed", s.seed, 0, 2**63 - 1)
+    _check_int("settings", "max_depth", s.max_depth, 1, 100_000)
+    _check_int("settings", "threads", s.threads, 0, 1024)
+
+
+# ----------------------------------------------------------------------------------------
+# JSON Schema check, with errors translated to SceneError
+# ----------------------------------------------------------------------------------------
+
+# Top-level lists whose items are named objects, and the word used for them in messages.
+_LIST_KINDS = {"bands": "band", "meshes": "mesh", "water": "water", "cameras": "camera",
+               "radiometers": "radiometer", "radiometer_arrays": "radiometer_array"}
+
+_TYPE_WORDS = {"number": "a number", "integer": "an integer", "string": "a string",
+               "array": "a list", "object": "an object", "null": "null", "boolean": "true/false"}
+
+
+@lru_cache(maxsize=1)
+def scene_schema() -> dict:
+    """The JSON Schema of the scene format (draft 2020-12), as a dict."""
+    text = resources.files("photic.schema").joinpath("scene.schema.json").read_text("utf-8")
+    return json.loads(text)
+
+
+@lru_cache(maxsize=1)
+def _schema_validator():
+    import jsonschema
+
+    return jsonschema.Draft202012Validator(scene_schema())
+
+
+def _field_text(parts) -> str:
+    """``["iops", "absorption", 0]`` -> ``"iops.absorption[0]"``."""
+    text = ""
+    for part in parts:
+        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+    return text
+
+
+def _locate(doc: dict, parts: list) -> tuple[str, str]:
+    """The object label and field for a path in the document."""
+    if parts and parts[0] in _LIST_KINDS and len(parts) >= 3 and isinstance(parts[1], int):
+        item = doc[parts[0]][parts[1]]
+        name = item.get("name") if isinstance(item, dict) else None
+        return _label(_LIST_KINDS[parts[0]], name, parts[1]), _field_text(parts[2:])
+    if parts and parts[0] == "materials" and len(parts) >= 3:
+        return f"material '{parts[1]}'", _field_text(parts[2:])
+    if parts and parts[0] in ("sun", "sky", "settings") and len(parts) >= 2:
+        return parts[0], _field_text(parts[1:])
+    return "scene", _field_text(parts) or "(document)"
+
+
+def _schema_message(error) -> tuple[list, str]:
+    """Path (possibly extended by a key) and message for a jsonschema error."""
+    parts = list(error.absolute_path)
+    kind, schema, value = error.validator, error.schema, error.instance
+    if kind == "required":
+        missing = [k for k in error.validator_value if k not in value]
+        return parts + missing[:1], "required field is missing"
+    if kind == "dependentRequired":
+        for key, needed in error.validator_value.items():
+            missing = [k for k in needed if key in value and k not in value]
+            if missing:
+                return parts + missing[:1], f"required together with '{key}'"
+    if kind == "additionalProperties" and error.validator_value is False:
+        known = list(schema.get("properties", {}))
+        unknown = [k for k in value if k not in known]
+        hint = difflib.get_close_matches(unknown[0], known, n=1)
+        suggestion = f"; did you mean '{hint[0]}'?" if hint else f"; allowed: {', '.join(known)}"
+        return parts + unknown[:1], f"unknown key{suggestion}"
+    if kind in ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum"):
+        lo = schema.get("minimum", schema.get("exclusiveMinimum"))
+        hi = schema.get("maximum", schema.get("exclusiveMaximum"))
+        allowed = _range_text(lo, hi, "exclusiveMinimum" in schema,
+                              "exclusiveMaximum" in schema, schema.get("type") == "integer")
+        return parts, f"must be {allowed}, got {_show(value)}"
+    if kind == "type":
+        wanted = error.validator_value
+        wanted = [wanted] if isinstance(wanted, str) else wanted
+        return parts, (f"must be {' or '.join(_TYPE_WORDS.get(w, w) for w in wanted)}, "
+                       f"got {_show(value)}")
+    if kind == "enum":
+        return parts, (f"must be one of {', '.join(map(repr, error.validator_value))}, "
+                       f"got {_show(value)}")
+    if kind == "const":
+        return parts, f"must be {error.validator_value!r}, got {_show(value)}"
+    if kind in ("minItems", "maxItems"):
+        lo, hi = schema.get("minItems"), schema.get("maxItems")
+        count = f"exactly {lo}" if lo == hi else (f"at least {lo}" if kind == "minItems"
+                                                  else f"at most {hi}")
+        return parts, f"must have {count} entries, got {len(value)}"
+    if kind == "minLength":
+        return parts, "must not be empty"
+    return parts, error.message
+
+
+def _check_schema(d: dict) -> None:
+    """Check ``d`` against the JSON Schema; raise the most relevant error as SceneError."""
+    import jsonschema
+
+    error = jsonschema.exceptions.best_match(_schema_validator().iter_errors(d))
+    if error is not None:
+        parts, message = _schema_message(error)
+        raise SceneError(*_locate(d, parts), message)
+
+
+# ----------------------------------------------------------------------------------------
+# Building the objects from a (schema-valid) document
+# ----------------------------------------------------------------------------------------
+
+def _per_band(label: str, fld: str, value: Any, nbands: int) -> np.ndarray:
+    """A per-band value as float64 (nbands,): a single number is broadcast to all bands."""
+    if isinstance(value, list):
+        if len(value) != nbands:
+            raise SceneError(label, fld, f"has {len(value)} entries but the scene has {nbands} "
+                                         f"band(s)")
+        return np.array(value, dtype=np.float64)
+    return np.full(nbands, float(value))
+
+
+def _only_for(label: str, d: dict, keys, what: str, prefix: str = "") -> None:
+    """Reject keys that do not belong to this type of object."""
+    for key in keys:
+        if key in d:
+            raise SceneError(label, f"{prefix}{key}", f"only allowed for {what}")
+
+
+def _read_mesh(label: str, d: dict, base_dir: Path, prefix: str = "") -> TriangleMesh:
+    """The mesh of an object: inline ``vertices``/``triangles`` or a ``file``, transformed."""
+    if "file" in d:
+        if "vertices" in d:
+            raise SceneError(label, f"{prefix}file", "give either 'file' or 'vertices' and "
+                                                     "'triangles', not both")
+        vertices, triangles = _read_mesh_file(label, f"{prefix}file", base_dir / d["file"])
+    elif "vertices" in d:
+        vertices = np.array(d["vertices"], dtype=np.float64).reshape(-1, 3)
+        triangles = np.array(d["triangles"], dtype=np.int64).reshape(-1, 3)
+    else:
+        raise SceneError(label, f"{prefix}vertices", "a mesh needs 'vertices' and 'triangles', "
+                                                     "or 'file'")
+    if "transform" in d:
+        vertices, triangles = _apply_transform(label, f"{prefix}transform", d["transform"],
+                                               vertices, triangles)
+    return TriangleMesh(vertices, triangles)
+
+
+def _read_mesh_file(label: str, fld: str, path: Path) -> tuple[np.ndarray, np.ndarray]:
+    import trimesh  # imported here: loading trimesh is slow and only mesh files need it
+
+    if not path.is_file():
+        raise SceneError(label, fld, f"mesh file not found: {path}")
+    try:
+        tm = trimesh.load(str(path), force="mesh")
+        return (np.asarray(tm.vertices, dtype=np.float64).reshape(-1, 3),
+                np.asarray(tm.faces, dtype=np.int64).reshape(-1, 3))
+    except Exception as exc:  # trimesh raises many kinds of errors for bad files
+        raise SceneError(label, fld, f"cannot read mesh file {path}: {exc}") from exc
+
+
+def _apply_transform(label, fld, matrix, vertices, triangles):
+    """Apply a 4x4 row-major affine matrix to column-vector vertices."""
+    m = np.array(matrix, dtype=np.float64)
+    if not np.all(np.isfinite(m)):
+        raise SceneError(label, fld, "must contain only finite numbers")
+    if not np.array_equal(m[3], [0.0, 0.0, 0.0, 1.0]):
+        raise SceneError(label, fld, f"must be affine (last row [0, 0, 0, 1]), got last row "
+                                     f"{m[3].tolist()}")
+    det = np.linalg.det(m[:3, :3])
+    if det == 0.0:
+        raise SceneError(label, fld, "is singular (determinant 0)")
+    vertices = vertices @ m[:3, :3].T + m[:3, 3]
+    # A mirroring transform would turn outward normals inward: reverse the winding.
+    if det < 0:
+        triangles = triangles[:, ::-1].copy()
+    return vertices, triangles
+
+
+def _read_phase(d: dict) -> PhaseFunction:
+    params = {k: float(v) for k, v in d.items() if k != "type"}
+    return PhaseFunction(d["type"], params)
+
+
+def _read_iops(label: str, d: dict, nbands: int) -> IOPs:
+    absorption = _per_band(label, "iops.absorption", d["absorption"], nbands)
+    if "b" in d:
+        if "scattering" in d:
+            raise SceneError(label, "iops.b", "give either 'scattering' or the shorthand 'b' "
+                                              "and 'phase', not both")
+        components = [ScatteringComponent(_per_band(label, "iops.b", d["b"], nbands),
+                                          _read_phase(d["phase"]))]
+    else:
+        components = [
+            ScatteringComponent(_per_band(label, f"iops.scattering[{i}].b", c["b"], nbands),
+                                _read_phase(c["phase"]))
+            for i, c in enumerate(d.get("scattering", []))]
+    return IOPs(absorption, components)
+
+
+def _read_water(label: str, d: dict, nbands: int, base_dir: Path) -> WaterBody:
+    iops = _read_iops(label, d["iops"], nbands)
+    ior = float(d.get("ior", 1.34))
+    if d["type"] == "mesh":
+        _only_for(label, d, ("surface", "bottom"), "water of type 'ocean'")
+        return WaterBody(d["name"], "mesh", iops, ior, mesh=_read_mesh(label, d, base_dir))
+    _only_for(label, d, ("vertices", "triangles", "file", "transform"), "water of type 'mesh'")
+    s = d["surface"]
+    if s["kind"] == "flat":
+        _only_for(label, s, ("vertices", "triangles", "file", "transform", "period"),
+                  "surface kind 'patch'", "surface.")
+        surface = OceanSurface("flat", float(s.get("z", 0.0)))
+    else:
+        _only_for(label, s, ("z",), "surface kind 'flat' (a patch's z is the mean height of "
+                                    "its vertices)", "surface.")
+        surface = OceanSurface("patch", mesh=_read_mesh(label, s, base_dir, "surface."),
+                               period=tuple(float(p) for p in s["period"]))
+    bottom = d.get("bottom")
+    return WaterBody(d["name"], "ocean", iops, ior, surface=surface,
+                     bottom_depth=float(bottom["depth"]) if bottom else None,
+                     bottom_material=bottom["material"] if bottom else None)
+
+
+def _read_sky(d: dict, nbands: int) -> Sky:
+    kind = d["type"]
+    if kind == "black":
+        _only_for("sky", d, ("radiance", "irradiance"), "sky types 'uniform' and 'cardioidal'")
+        return Sky("black")
+    if ("radiance" in d) == ("irradiance" in d):
+        raise SceneError("sky", "radiance", f"a '{kind}' sky needs exactly one of 'radiance' "
+                                            f"and 'irradiance'")
+    if "radiance" in d:
+        return Sky(kind, _per_band("sky", "radiance", d["radiance"], nbands))
+    irradiance = _per_band("sky", "irradiance", d["irradiance"], nbands)
+    if kind == "uniform":
+        return Sky(kind, irradiance / math.pi)  # E = pi L
+    return Sky(kind, 3.0 * irradiance / (7.0 * math.pi))  # E = 7 pi L0 / 3
+
+
+def _read_camera(label: str, d: dict) -> Camera:
+    position = np.array(d["position"], dtype=np.float64)
+    if ("look_at" in d) == ("direction" in d):
+        raise SceneError(label, "direction", "give exactly one of 'look_at' and 'direction'")
+    if "look_at" in d:
+        direction = np.array(d["look_at"], dtype=np.float64) - position
+        if not np.any(direction):
+            raise SceneError(label, "look_at", "must differ from 'position'")
+    else:
+        direction = np.array(d["direction"], dtype=np.float64)
+    flt = d.get("filter", {"type": "box"})
+    return Camera(
+        d["name"], d["type"], position, direction, up=np.array(d.get("up", [0, 0, 1]), float),
+        fov_deg=float(d.get("fov_deg", 40.0)), ortho_width=float(d.get("ortho_width", 2.0)),
+        resolution=tuple(int(n) for n in d.get("resolution", (64, 64))),
+        filter_type=flt["type"],
+        filter_width_px=float(flt.get("width_px", _FILTER_DEFAULT_WIDTH[flt["type"]])))
+
+
+def _read_radiometer(d: dict) -> Radiometer:
+    return Radiometer(d["name"], d["quantity"], np.array(d["position"], dtype=np.float64),
+                      direction=np.array(d.get("direction", [0, 0, -1]), dtype=np.float64),
+                      half_angle_deg=float(d.get("half_angle_deg", 12.9)),
+                      polar_bins=int(d.get("polar_bins", 18)),
+                      azimuth_bins=int(d.get("azimuth_bins", 24)))
+
+
+def _read_radiometer_array(label: str, d: dict) -> RadiometerArray:
+    if ("positions" in d) == ("line" in d):
+        raise SceneError(label, "positions", "give exactly one of 'positions' and 'line'")
+    spec = d["positions"] if "positions" in d else d["line"]
+    if isinstance(spec, dict):
+        positions = np.linspace(spec["start"], spec["stop"], int(spec["count"]))
+    else:
+        positions = np.array(spec, dtype=np.float64)
+    return RadiometerArray(
+        d["name"], list(d["quantities"]), positions,
+        direction=np.array(d["direction"], dtype=np.float64) if "direction" in d else None,
+        half_angle_deg=float(d["half_angle_deg"]) if "half_angle_deg" in d else None)
+
+
+def _build_scene(d: dict, base_dir: Path) -> Scene:
+    bands = [Band(b["name"], float(b["center_nm"]), float(b["width_nm"]))
+             for b in d.get("bands", [])] or _default_bands()
+    nb = len(bands)
+    materials = {name: Material(name, _per_band(f"material '{name}'", "reflectance",
+                                                m["reflectance"], nb))
+                 for name, m in d.get("materials", {}).items()}
+    meshes = []
+    for i, m in enumerate(d.get("meshes", [])):
+        label = _label("mesh", m["name"], i)
+        meshes.append(MeshObject(m["name"], _read_mesh(label, m, base_dir), m["material"]))
+    water = [_read_water(_label("water", w["name"], i), w, nb, base_dir)
+             for i, w in enumerate(d.get("water", []))]
+    sun = None
+    if d.get("sun") is not None:
+        s = d["sun"]
+        sun = Sun(float(s["zenith_deg"]), float(s["azimuth_deg"]),
+                  _per_band("sun", "irradiance", s["irradiance"], nb),
+                  float(s.get("angular_diameter_deg", 0.53)))
+    settings = Settings(**{k: (v if k == "integrator" else int(v))
+                           for k, v in d.get("settings", {}).items()})
+    return Scene(
+        name=d.get("name", "scene"), bands=bands, materials=materials, meshes=meshes,
+        water=water, sun=sun, sky=_read_sky(d.get("sky", {"type": "black"}), nb),
+        cameras=[_read_camera(_label("camera", c["name"], i), c)
+                 for i, c in enumerate(d.get("cameras", []))],
+        radiometers=[_read_radiometer(r) for r in d.get("radiometers", [])],
+        radiometer_arrays=[_read_radiometer_array(_label("radiometer_array", a["name"], i), a)
+                           for i, a in enumerate(d.get("radiometer_arrays", []))],
+        settings=settings)
+
+
+# ----------------------------------------------------------------------------------------
+# Writing
+# ----------------------------------------------------------------------------------------
+
+def _list(a: Any) -> list:
+    return np.asarray(a).tolist()
+
+
+def _mesh_to_dict(mesh: TriangleMesh) -> dict:
+    return {"vertices": _list(mesh.vertices), "triangles": _list(mesh.triangles)}
+
+
+def _phase_to_dict(p: PhaseFunction) -> dict:
+    return {"type": p.type, **{k: float(v) for k, v in p.params.items()}}
+
+
+def _water_to_dict(w: WaterBody) -> dict:
+    d: dict[str, Any] = {"name": w.name, "type": w.type, "ior": float(w.ior), "iops": {
+        "absorption": _list(w.iops.absorption),
+        "scattering": [{"b": _list(c.b), "phase": _phase_to_dict(c.phase)}
+                       for c in w.iops.scattering]}}
+    if w.type == "mesh":
+        d.update(_mesh_to_dict(w.mesh))
+        return d
+    s = w.surface
+    if s.kind == "flat":
+        d["surface"] = {"kind": "flat", "z": float(s.z)}
+    else:
+        d["surface"] = {"kind": "patch", **_mesh_to_dict(s.mesh),
+                        "period": [float(p) for p in s.period]}
+    d["bottom"] = None if w.bottom_depth is None else {"depth": float(w.bottom_depth),
+                                                       "material": w.bottom_material}
+    return d
+
+
+def _scene_to_dict(s: Scene) -> dict:
+    sky: dict[str, Any] = {"type": s.sky.type}
+    if s.sky.radiance_scale is not None:
+        # L0 itself is written (not an irradiance) so that reading it back is bit-exact.
+        sky["radiance"] = _list(s.sky.radiance_scale)
+    arrays = []
+    for a in s.radiometer_arrays:
+        item: dict[str, Any] = {"name": a.name, "quantities": list(a.quantities),
+                                "positions": _list(a.positions)}
+        if a.direction is not None:
+            item["direction"] = _list(a.direction)
+        if a.half_angle_deg is not None:
+            item["half_angle_deg"] = float(a.half_angle_deg)
+        arrays.append(item)
+    return {
+        "photic_scene": FORMAT_VERSION,
+        "name": s.name,
+        "bands": [{"name": b.name, "center_nm": float(b.center_nm), "width_nm": float(b.width_nm)}
+                  for b in s.bands],
+        "materials": {k: {"type": "lambertian", "reflectance": _list(m.reflectance)}
+                      for k, m in s.materials.items()},
+        "meshes": [{"name": m.name, "material": m.material, **_mesh_to_dict(m.mesh)}
+                   for m in s.meshes],
+        "water": [_water_to_dict(w) for w in s.water],
+        "sun": None if s.sun is None else {
+            "zenith_deg": float(s.sun.zenith_deg), "azimuth_deg": float(s.sun.azimuth_deg),
+            "irradiance": _list(s.sun.irradiance),
+            "angular_diameter_deg": float(s.sun.angular_diameter_deg)},
+        "sky": sky,
+        "cameras": [{"name": c.name, "type": c.type, "position": _list(c.position),
+                     "direction": _list(c.direction), "up": _list(c.up),
+                     "fov_deg": float(c.fov_deg), "ortho_width": float(c.ortho_width),
+                     "resolution": [int(n) for n in c.resolution],
+                     "filter": {"type": c.filter_type, "width_px": float(c.filter_width_px)}}
+                    for c in s.cameras],
+        "radiometers": [{"name": r.name, "quantity": r.quantity, "position": _list(r.position),
+                         "direction": _list(r.direction),
+                         "half_angle_deg": float(r.half_angle_deg),
+                         "polar_bins": int(r.polar_bins), "azimuth_bins": int(r.azimuth_bins)}
+                        for r in s.radiometers],
+        "radiometer_arrays": arrays,
+        "settings": {"integrator": s.settings.integrator, "samples": int(s.settings.samples),
+                     "radiometer_samples": int(s.settings.radiometer_samples),
+                     "seed": int(s.settings.seed), "max_depth": int(s.settings.max_depth),
+                     "threads": int(s.settings.threads)},
+    }
+
+
+def _dumps(obj: Any, level: int = 0) -> str:
+    """JSON text with lists of numbers on one line (so meshes stay one vertex per line)."""
+    inner = "  " * (level + 1)
+    if isinstance(obj, dict) and obj:
+        items = [f"{inner}{json.dumps(k)}: {_dumps(v, level + 1)}" for k, v in obj.items()]
+        return "{\n" + ",\n".join(items) + "\n" + "  " * level + "}"
+    if isinstance(obj, list) and any(isinstance(x, (dict, list)) for x in obj):
+        return "[\n" + ",\n".join(inner + _dumps(x, level + 1) for x in obj) + "\n" + \
+            "  " * level + "]"
+    return json.dumps(obj)
+
+
+# ----------------------------------------------------------------------------------------
+# Files
+# ----------------------------------------------------------------------------------------
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a scene file; relative mesh paths are relative to its directory.
+
+    Raises
+    ------
+    SceneError
+        If the file cannot be read, is not valid JSON, or the scene is invalid.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise SceneError("scene", str(path), f"cannot read scene file: {exc}") from exc
+    try:
+        d = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise SceneError("scene", str(path), f"invalid JSON at line {exc.lineno} column "
+                                             f"{exc.colno}: {exc.msg}") from exc
+    return Scene.from_dict(d, base_dir=path.resolve().parent)
+
+
+def save_scene(scene: Scene, path: str | Path) -> None:
+    """Write a scene as JSON (meshes inline)."""
+    Path(path).write_text(_dumps(scene.to_dict()) + "\n", encoding="utf-8")

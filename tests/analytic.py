@@ -1,0 +1,27 @@
+"""Closed forms and one-dimensional quadratures used as references by the statistical tests."""
+import numpy as np
+
+from photic import _core
+
+
+def transmitted_uniform_sky(depth, a, n=1.34, sky_radiance=1.0, weight="Ed", mu_min=None, npts=200001):
+    """Ed or Eo at `depth` below a flat surface under a uniform sky, water with b = 0.
+
+    In-water radiance inside Snell's window (cosine mu_w >= mu_c) is n^2 T_F L_sky; outside it
+    the view sees total internal reflection of upwelling light, zero here. Each direction is
+    attenuated by exp(-a z / mu_w).
+    """
+    mu_c = np.sqrt(1 - 1 / n**2)
+    lo = mu_c if mu_min is None else max(mu_c, mu_min)
+    mu = np.linspace(lo, 1.0, npts)
+    T = 1 - np.array([_core.fresnel(m, n, 1.0) for m in mu]) if npts <= 5001 else \
+        1 - np.vectorize(lambda m: _core.fresnel(m, n, 1.0))(mu)
+    L = n**2 * T * sky_radiance * np.exp(-a * depth / mu)
+    f = {"Ed": L * mu, "Eo": L, "L": L}[weight]
+    return 2 * np.pi * np.trapz(f, mu)
+
+
+def simpson(y, h):
+    """Composite Simpson rule on an odd number of equally spaced values."""
+    y = np.asarray(y)
+    return h / 3 * (y[0] + y[-1] + 4 * y[1:-1:2].sum() + 2 * y[2:-1:2].sum())

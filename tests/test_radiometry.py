@@ -1,0 +1,92 @@
+"""End-to-end statistical checks of the path tracer against closed forms and conservation
+laws. Every comparison uses the estimator's own standard error (z-scores, fixed seeds)."""
+import numpy as np
+import pytest
+
+from analytic import simpson, transmitted_uniform_sky
+from photic.render import render
+from photic.scene import Scene
+
+N_W = 1.34
+Z_MAX = 4.0  # |z| above this fails: ~6e-5 false alarms per check, a real bias fails
+
+
+def ocean_scene(a, b=0.0, phase=None, sky=None, sun=None, radiometers=(), bottom=None, **settings):
+    iops = {"absorption": [a], "scattering": [{"b": [b], "phase": phase or {"type": "petzold"}}]}
+    water = {"name": "sea", "type": "ocean", "ior": N_W, "surface": {"kind": "flat", "z": 0.0}, "iops": iops}
+    d = {"photic_scene": 1, "name": "test", "water": [water],
+         "sky": sky or {"type": "uniform", "radiance": [1.0]},
+         "radiometers": list(radiometers),
+         "settings": {"seed": 11, "radiometer_samples": 100000, **settings}}
+    if bottom:
+        water["bottom"] = bottom
+        d["materials"] = {"floor": {"type": "lambertian", "reflectance": [0.3]}}
+    if sun:
+        d["sun"] = sun
+    return Scene.from_dict(d)
+
+
+def rad(name, q, z, **kw):
+    return {"name": name, "quantity": q, "position": [0.0, 0.0, z], **kw}
+
+
+def test_uniform_sky_through_flat_surface_matches_quadrature(zscore):
+    """b = 0: Ed(z), Eo(z) and zenith radiance equal the quadrature of the refracted sky
+    (Fresnel, n^2 law, the critical-angle cone) times exp(-a z / mu)."""
+    a = 0.4
+    depths = [0.05, 1.0, 3.0]
+    rads = []
+    for z in depths:
+        rads += [rad(f"Ed_{z}", "Ed", -z), rad(f"Eo_{z}", "Eo", -z),
+                 rad(f"L_{z}", "radiance", -z, direction=[0, 0, 1], half_angle_deg=20.0)]
+    res = render(ocean_scene(a, radiometers=rads), radiometer_samples=200_000)
+    for z in depths:
+        for q, w, extra in (("Ed", "Ed", {}), ("Eo", "Eo", {}), ("L", "L", {"mu_min": np.cos(np.radians(20))})):
+            r = res.radiometer(f"{q}_{z}")
+            ref = transmitted_uniform_sky(z, a, weight=w, **extra)
+            if q == "L":
+                ref /= 2 * np.pi * (1 - np.cos(np.radians(20)))
+            assert r.medium == "sea"
+            zs = zscore(f"{q}(z={z} m)", r.mean[0, 0], ref, r.stderr[0, 0])
+            assert abs(zs) < Z_MAX
+
+
+def test_ed_above_water_is_sun_plus_sky(zscore):
+    """Ed(0+) = E_sun cos(theta_s) + pi L_sky, above a flat sea."""
+    e_sun, l_sky, zen = 2.0, 0.3, 30.0
+    sc = ocean_scene(0.2, 0.5, sky={"type": "uniform", "radiance": [l_sky]},
+                     sun={"zenith_deg": zen, "azimuth_deg": 40.0, "irradiance": [e_sun]},
+                     radiometers=[rad("Ed_air", "Ed", 0.2), rad("Eod_air", "Eod", 0.2)])
+    res = render(sc, radiometer_samples=50_000)
+    r = res.radiometer("Ed_air")
+    assert r.medium == "air"
+    ref = e_sun * np.cos(np.radians(zen)) + np.pi * l_sky
+    assert abs(zscore("Ed(0+)", r.mean[0, 0], ref, r.stderr[0, 0])) < Z_MAX
+    assert r.stderr[0, 0] / ref < 0.01
+    r = res.radiometer("Eod_air")
+    alpha = np.radians(0.53) / 2  # scalar irradiance of a uniform disk: L * solid angle
+    ref = e_sun * 2 * (1 - np.cos(alpha)) / np.sin(alpha) ** 2 + 2 * np.pi * l_sky
+    assert abs(zscore("Eod(0+)", r.mean[0, 0], ref, r.stderr[0, 0])) < Z_MAX
+
+
+def test_gershun_law_holds_at_five_depths(zscore):
+    """Uniform sky, a = 0.2, b = 0.8 (Petzold): (Ed - Eu)(z1) - (Ed - Eu)(z2) = a * int Eo dz
+    between consecutive depths of 1..5 m (Simpson on Eo at 0.25 m steps)."""
+    a, b = 0.2, 0.8
+    depths = [1.0, 2.0, 3.0, 4.0, 5.0]
+    eo_depths = np.arange(1.0, 5.0001, 0.25)
+    rads = [rad(f"Ed_{z}", "Ed", -z) for z in depths] + [rad(f"Eu_{z}", "Eu", -z) for z in depths]
+    rads += [rad(f"Eo_{z}", "Eo", -z) for z in eo_depths]
+    res = render(ocean_scene(a, b, radiometers=rads), radiometer_samples=400_000)
+    val = lambda n: (res.radiometer(n).mean[0, 0], res.radiometer(n).stderr[0, 0])
+    for z1, z2 in zip(depths[:-1], depths[1:]):
+        (ed1, sd1), (eu1, su1), (ed2, sd2), (eu2, su2) = val(f"Ed_{z1}"), val(f"Eu_{z1}"), val(f"Ed_{z2}"), val(f"Eu_{z2}")
+        zs = [z for z in eo_depths if z1 - 1e-9 <= z <= z2 + 1e-9]
+        eo = np.array([val(f"Eo_{z}") for z in zs])
+        w = np.ones(len(zs)); w[1:-1:2] = 4; w[2:-1:2] = 2; w *= 0.25 / 3
+        lhs = (ed1 - eu1) - (ed2 - eu2)
+        rhs = a * np.sum(w * eo[:, 0])
+        se = np.sqrt(sd1**2 + su1**2 + sd2**2 + su2**2 + (a**2) * np.sum((w * eo[:, 1]) ** 2))
+        assert abs(rhs - a * simpson(eo[:, 0], 0.25)) < 1e-12
+        assert abs(zscore(f"Gershun {z1:.0f}-{z2:.0f} m", lhs, rhs, se)) < Z_MAX
+        assert se / rhs < 0.03
