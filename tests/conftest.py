@@ -20,7 +20,10 @@ _ZSCORES: list[tuple] = []
 def zscore(request):
     """zscore(label, value, reference, stderr) -> z, recorded for the closing table."""
     def record(label, value, reference, stderr):
-        z = (value - reference) / stderr if stderr > 0 else (0.0 if value == reference else float("inf"))
+        if stderr > 0:
+            z = (value - reference) / stderr
+        else:  # a deterministic estimate: it must equal the reference to rounding
+            z = 0.0 if abs(value - reference) <= 1e-9 * abs(reference) else float("inf")
         _ZSCORES.append((request.node.name, label, value, reference, stderr, z))
         return z
     return record

@@ -443,6 +443,10 @@ BAD_INPUTS = [
     pytest.param(_set("meshes.0.vertices.1", [1.0, math.nan, 0.0]), "mesh 'rock'",
                  "vertices[1]", id="vertex-nan"),
     pytest.param(_set("meshes.0.triangles", []), "mesh 'rock'", "triangles", id="mesh-empty"),
+    pytest.param(_set("meshes.0.triangles", [[0, 1, 1.5]]), "mesh 'rock'", "triangles[0][2]",
+                 id="index-fractional"),
+    pytest.param(_set("water.1.vertices.3", [1, True, 0]), "water 'tank'", "vertices[3][1]",
+                 id="vertex-bool"),
     pytest.param(_both(_delete("meshes.0.vertices"), _delete("meshes.0.triangles")),
                  "mesh 'rock'", "vertices", id="mesh-without-geometry"),
     pytest.param(_delete("meshes.0.triangles"), "mesh 'rock'", "triangles",
@@ -641,6 +645,18 @@ def test_bad_python_scene_is_rejected_by_validate(mutate, obj, field):
     message = str(info.value)
     assert obj in message and field in message, message
     assert info.value.obj == obj and field in info.value.field, message
+
+
+@pytest.mark.parametrize("content", ["this is not a mesh\n", ""], ids=["garbage", "empty"])
+def test_unreadable_mesh_file(tmp_path, content):
+    (tmp_path / "rock.ply").write_text(content)
+    d = valid_dict()
+    rock = d["meshes"][0]
+    del rock["vertices"], rock["triangles"]
+    rock["file"] = "rock.ply"
+    with pytest.raises(SceneError) as info:
+        Scene.from_dict(d, base_dir=tmp_path)
+    assert info.value.obj == "mesh 'rock'" and info.value.field == "file", str(info.value)
 
 
 def test_invalid_json_file(tmp_path):

@@ -77,7 +77,7 @@ def cmd_render(args) -> int:
 
 def cmd_bench(args) -> int:
     from .bench import run_bench
-    records = run_bench(quick=args.quick, threads=args.threads, seconds=args.seconds)
+    records = run_bench(quick=args.quick, threads=args.threads, seconds=args.seconds, print_table=not args.json)
     if args.json:
         print(json.dumps(records, indent=1))
     return 0

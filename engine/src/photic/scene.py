@@ -32,7 +32,7 @@ __all__ = [
     "FORMAT_VERSION", "PHASE_FUNCTION_PARAMS", "QUANTITIES", "SceneError", "Band", "Material",
     "PhaseFunction", "ScatteringComponent", "IOPs", "TriangleMesh", "MeshObject",
     "OceanSurface", "WaterBody", "Sun", "Sky", "Camera", "Radiometer", "RadiometerArray",
-    "Settings", "Scene", "load_scene", "save_scene",
+    "Settings", "Scene", "load_scene", "save_scene", "scene_schema",
 ]
 
 FORMAT_VERSION = 1
@@ -155,7 +155,13 @@ def _show(x: Any) -> str:
 
 def _num(x: float) -> str:
     """A bound in an error message: integers without a decimal point."""
-    return str(int(x)) if float(x).is_integer() and abs(x) < 1e16 else repr(float(x))
+    if isinstance(x, numbers.Integral) or (float(x).is_integer() and abs(x) < 1e16):
+        return str(int(x))
+    return repr(float(x))
+
+
+def _entries(n: int) -> str:
+    return f"{n} entry" if n == 1 else f"{n} entries"
 
 
 def _range_text(lo=None, hi=None, lo_open=False, hi_open=False, integer=False) -> str:
@@ -206,8 +212,8 @@ def _check_per_band(obj, fld, a, nbands, lo=0.0, hi=None) -> None:
         raise SceneError(obj, fld, f"must be a list of {nbands} number(s), one per band, "
                                    f"got {_show(a)}")
     if a.shape[0] != nbands:
-        raise SceneError(obj, fld, f"has {a.shape[0]} entries but the scene has {nbands} "
-                                   f"band(s)")
+        raise SceneError(obj, fld, f"has {_entries(a.shape[0])} but the scene has "
+                                   f"{nbands} band(s)")
     for i, x in enumerate(a.tolist()):
         _check_real(obj, f"{fld}[{i}]", x, lo, hi)
 
@@ -415,6 +421,7 @@ class Sky(_ArrayEq):
 
     type: str
     radiance_scale: np.ndarray | None = None
+    full_sphere: bool = False  # uniform only: radiance L0 below the horizon too (furnace tests)
 
     def __post_init__(self):
         self.radiance_scale = _as_floats(self.radiance_scale)
@@ -827,6 +834,8 @@ def _validate_sky(sky: Any, nbands: int) -> None:
             raise SceneError("sky", "radiance_scale", "must be None for a black sky")
         return
     _check_per_band("sky", "radiance_scale", sky.radiance_scale, nbands)
+    if sky.full_sphere and sky.type != "uniform":
+        raise SceneError("sky", "full_sphere", f"only a uniform sky can cover the full sphere, not '{sky.type}'")
 
 
 def _validate_camera(label: str, c: Camera) -> None:
@@ -966,19 +975,55 @@ def _schema_message(error) -> tuple[list, str]:
         return parts, f"must be {error.validator_value!r}, got {_show(value)}"
     if kind in ("minItems", "maxItems"):
         lo, hi = schema.get("minItems"), schema.get("maxItems")
-        count = f"exactly {lo}" if lo == hi else (f"at least {lo}" if kind == "minItems"
-                                                  else f"at most {hi}")
-        return parts, f"must have {count} entries, got {len(value)}"
+        if lo == hi:
+            count = f"exactly {_entries(lo)}"
+        else:
+            count = f"at least {_entries(lo)}" if kind == "minItems" else f"at most {_entries(hi)}"
+        return parts, f"must have {count}, got {len(value)}"
     if kind == "minLength":
         return parts, "must not be empty"
     return parts, error.message
+
+
+def _is_index_rows(rows: Any, number_types: tuple) -> bool:
+    """True when ``rows`` is a list of 3-lists of the given number types (no bools)."""
+    return (isinstance(rows, list)
+            and all(type(row) is list and len(row) == 3 for row in rows)
+            and {type(x) for row in rows for x in row} <= set(number_types))
+
+
+def _shorten_mesh_lists(d: dict) -> dict:
+    """A copy of ``d`` whose well-formed mesh lists are cut to one row.
+
+    jsonschema takes seconds per 100,000 triangles; well-formed rows are recognised here much
+    faster, and anything unusual is left whole for the schema to report precisely.
+    """
+    def shorten(obj: Any) -> Any:
+        if not isinstance(obj, dict):
+            return obj
+        obj = dict(obj)
+        if _is_index_rows(obj.get("vertices"), (int, float)):
+            obj["vertices"] = obj["vertices"][:1]
+        if _is_index_rows(obj.get("triangles"), (int,)):
+            if all(x >= 0 for row in obj["triangles"] for x in row):
+                obj["triangles"] = obj["triangles"][:1]
+        if "surface" in obj:
+            obj["surface"] = shorten(obj["surface"])
+        return obj
+
+    d = dict(d)
+    for key in ("meshes", "water"):
+        if isinstance(d.get(key), list):
+            d[key] = [shorten(item) for item in d[key]]
+    return d
 
 
 def _check_schema(d: dict) -> None:
     """Check ``d`` against the JSON Schema; raise the most relevant error as SceneError."""
     import jsonschema
 
-    error = jsonschema.exceptions.best_match(_schema_validator().iter_errors(d))
+    error = jsonschema.exceptions.best_match(
+        _schema_validator().iter_errors(_shorten_mesh_lists(d)))
     if error is not None:
         parts, message = _schema_message(error)
         raise SceneError(*_locate(d, parts), message)
@@ -992,8 +1037,8 @@ def _per_band(label: str, fld: str, value: Any, nbands: int) -> np.ndarray:
     """A per-band value as float64 (nbands,): a single number is broadcast to all bands."""
     if isinstance(value, list):
         if len(value) != nbands:
-            raise SceneError(label, fld, f"has {len(value)} entries but the scene has {nbands} "
-                                         f"band(s)")
+            raise SceneError(label, fld, f"has {_entries(len(value))} but the scene "
+                                         f"has {nbands} band(s)")
         return np.array(value, dtype=np.float64)
     return np.full(nbands, float(value))
 
@@ -1031,10 +1076,13 @@ def _read_mesh_file(label: str, fld: str, path: Path) -> tuple[np.ndarray, np.nd
         raise SceneError(label, fld, f"mesh file not found: {path}")
     try:
         tm = trimesh.load(str(path), force="mesh")
-        return (np.asarray(tm.vertices, dtype=np.float64).reshape(-1, 3),
-                np.asarray(tm.faces, dtype=np.int64).reshape(-1, 3))
+        vertices = np.asarray(tm.vertices, dtype=np.float64).reshape(-1, 3)
+        triangles = np.asarray(tm.faces, dtype=np.int64).reshape(-1, 3)
     except Exception as exc:  # trimesh raises many kinds of errors for bad files
         raise SceneError(label, fld, f"cannot read mesh file {path}: {exc}") from exc
+    if len(triangles) == 0:
+        raise SceneError(label, fld, f"mesh file {path} contains no triangles")
+    return vertices, triangles
 
 
 def _apply_transform(label, fld, matrix, vertices, triangles):
@@ -1102,16 +1150,17 @@ def _read_water(label: str, d: dict, nbands: int, base_dir: Path) -> WaterBody:
 def _read_sky(d: dict, nbands: int) -> Sky:
     kind = d["type"]
     if kind == "black":
-        _only_for("sky", d, ("radiance", "irradiance"), "sky types 'uniform' and 'cardioidal'")
+        _only_for("sky", d, ("radiance", "irradiance", "full_sphere"), "sky types 'uniform' and 'cardioidal'")
         return Sky("black")
+    full = bool(d.get("full_sphere", False))
     if ("radiance" in d) == ("irradiance" in d):
         raise SceneError("sky", "radiance", f"a '{kind}' sky needs exactly one of 'radiance' "
                                             f"and 'irradiance'")
     if "radiance" in d:
-        return Sky(kind, _per_band("sky", "radiance", d["radiance"], nbands))
+        return Sky(kind, _per_band("sky", "radiance", d["radiance"], nbands), full)
     irradiance = _per_band("sky", "irradiance", d["irradiance"], nbands)
     if kind == "uniform":
-        return Sky(kind, irradiance / math.pi)  # E = pi L
+        return Sky(kind, irradiance / math.pi, full)  # E = pi L
     return Sky(kind, 3.0 * irradiance / (7.0 * math.pi))  # E = 7 pi L0 / 3
 
 
@@ -1228,6 +1277,8 @@ def _scene_to_dict(s: Scene) -> dict:
     if s.sky.radiance_scale is not None:
         # L0 itself is written (not an irradiance) so that reading it back is bit-exact.
         sky["radiance"] = _list(s.sky.radiance_scale)
+    if s.sky.full_sphere:
+        sky["full_sphere"] = True
     arrays = []
     for a in s.radiometer_arrays:
         item: dict[str, Any] = {"name": a.name, "quantities": list(a.quantities),

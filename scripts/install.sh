@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Creates the development environment in .venv/ at the repository root:
+# system packages (Embree 3 with headers, a C++ compiler, CMake, Python headers and venv),
+# the Python dependencies (requirements.txt) and the engine built from source (engine/).
+# Safe to run again: it only installs what is missing and rebuilds the engine.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PY=${PYTHON:-python3}
+APT_PACKAGES="libembree-dev g++ cmake make python3-dev python3-venv"
+
+missing=()
+for p in $APT_PACKAGES; do
+  dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  echo "== installing system packages: ${missing[*]}"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq ${missing[*]} >/dev/null
+fi
+
+if [ ! -x .venv/bin/python ]; then
+  echo "== creating .venv with $($PY --version)"
+  $PY -m venv .venv
+fi
+.venv/bin/python -m pip install -q --upgrade pip
+echo "== installing Python dependencies (bpy is large: this takes a few minutes the first time)"
+.venv/bin/python -m pip install -q -r requirements.txt
+echo "== building and installing the engine (C++ core) from source"
+.venv/bin/python -m pip install -q -e ./engine
+.venv/bin/python -c "import photic._core, photic; print('photic', photic.__version__, 'installed')"
