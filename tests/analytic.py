@@ -25,3 +25,18 @@ def simpson(y, h):
     """Composite Simpson rule on an odd number of equally spaced values."""
     y = np.asarray(y)
     return h / 3 * (y[0] + y[-1] + 4 * y[1:-1:2].sum() + 2 * y[2:-1:2].sum())
+
+
+def sun_disk_planar_irradiance(zenith_deg, e_sun=1.0, diameter_deg=0.53, n=2001):
+    """Irradiance on a horizontal plane from a uniform sun disk, sun directions below the
+    horizon not counted: E_sun / (pi sin^2 a) * int_disk max(0, cos theta) dw (quadrature)."""
+    a = np.radians(diameter_deg) / 2
+    th0 = np.radians(zenith_deg)
+    r = np.linspace(0, a, n)              # angle from the disk centre
+    ph = np.linspace(0, 2 * np.pi, n)
+    R, P = np.meshgrid(r, ph, indexing="ij")
+    # cos(zenith) of a direction at angle R from the centre, azimuth P around it.
+    cz = np.cos(th0) * np.cos(R) + np.sin(th0) * np.sin(R) * np.cos(P)
+    f = np.maximum(cz, 0) * np.sin(R)
+    integral = np.trapz(np.trapz(f, ph, axis=1), r)
+    return e_sun / (np.pi * np.sin(a) ** 2) * integral
