@@ -90,3 +90,43 @@ def test_gershun_law_holds_at_five_depths(zscore):
         assert abs(rhs - a * simpson(eo[:, 0], 0.25)) < 1e-12
         assert abs(zscore(f"Gershun {z1:.0f}-{z2:.0f} m", lhs, rhs, se)) < Z_MAX
         assert se / rhs < 0.03
+
+
+def test_camera_and_radiance_distribution_under_flat_surface(zscore):
+    """An orthographic camera looking straight up from 2 m depth sees n^2 T(0) L exp(-a z) in
+    every pixel; a radiance distribution's bins inside Snell's window match the quadrature and
+    those outside it (total internal reflection of black deep water) are exactly zero."""
+    a, z, n = 0.25, 2.0, N_W
+    sc = ocean_scene(a, radiometers=[rad("dist", "radiance_distribution", -z, polar_bins=18, azimuth_bins=4)])
+    sc.cameras.append(__import__("photic.scene", fromlist=["Camera"]).Camera(
+        "up", "orthographic", np.array([0.0, 0.0, -z]), np.array([0.0, 0.0, 1.0]), np.array([0.0, 1.0, 0.0]),
+        ortho_width=1.0, resolution=(8, 6)))
+    res = render(sc, samples=256, radiometer_samples=72 * 4000)
+    from photic import _core
+    ref = n * n * (1 - _core.fresnel(1.0, n, 1.0)) * np.exp(-a * z)
+    img = res.images["up"]
+    # Each sample is n^2 L e^{-az} (transmitted, probability T) or 0 (reflected down, lost).
+    se = np.sqrt(img.variance.sum()) / img.mean.size
+    assert abs(zscore("camera L looking up", img.mean.mean(), ref, se)) < Z_MAX
+    dist = res.radiometer("dist")
+    mu_c = np.sqrt(1 - 1 / n**2)
+    for ip in range(18):
+        th0, th1 = np.radians(10 * ip), np.radians(10 * (ip + 1))
+        # Look direction polar angle th from +z: looking up into Snell's window when cos th > mu_c.
+        lo, hi = np.cos(th1), np.cos(th0)
+        omega = 2 * np.pi * (hi - lo)
+        if lo >= mu_c:
+            from analytic import transmitted_uniform_sky as q
+            ref_bin = (q(z, a, weight="L", mu_min=lo) - q(z, a, weight="L", mu_min=hi)) / omega
+        elif hi <= mu_c:
+            ref_bin = 0.0
+        else:
+            continue  # the bin straddles the critical angle
+        for ia in range(4):
+            v, se = dist.mean[ip * 4 + ia, 0], dist.stderr[ip * 4 + ia, 0]
+            if ref_bin == 0.0:
+                assert v == 0.0
+            elif ia == 0:
+                assert abs(zscore(f"L bin {10 * ip}-{10 * ip + 10} deg", v, ref_bin, se)) < Z_MAX
+            else:
+                assert abs((v - ref_bin) / se) < Z_MAX
