@@ -55,35 +55,61 @@ Spectrum Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, Rng& rng, Co
     Spectrum beta = Spectrum::constant(1.0);
     int depth = 0;
     c.paths++;
+    // Absorption is applied lazily: `pending` metres travelled in the current water body
+    // since beta last carried exp(-a s). Light is only scored in air, so beta must be exact
+    // only when the path leaves the water; Russian roulette uses a bound meanwhile.
+    double pending = 0.0;
+    auto flush = [&](const Water& w) {
+        if (pending > 0.0)
+            for (int k = 0; k < nb; ++k) beta.v[k] *= std::exp(-w.a.v[k] * pending);
+        pending = 0.0;
+    };
     for (;;) {
-        Hit h = intersect(o, d);
-        c.segments++;
-        double t_hit = h.valid ? h.t : kInf;
-
+        Hit h;
+        double t_hit;
         if (medium >= 0) {
             const Water& w = waters[medium];
             bool scattered = false;
             double t_cur = 0.0;
             if (w.majorant > 0.0) {
-                for (;;) {
-                    double dt = -std::log(1.0 - rng.uniform()) / w.majorant;
-                    if (t_cur + dt >= t_hit) break;
+                // Sample the first tentative collision before tracing, and trace only that
+                // far: short rays are cheaper, and most flights in water end in the volume.
+                double dt = -std::log(1.0 - rng.uniform()) / w.majorant;
+                h = intersect(o, d, dt);
+                c.segments++;
+                bool clipped = !h.valid;  // nothing before dt; what lies beyond is unknown
+                t_hit = h.valid ? h.t : kInf;
+                while (t_cur + dt < t_hit) {
                     t_cur += dt;
+                    pending += dt;
+                    // Any probability fixed before the decision keeps the estimate unbiased;
+                    // weighting by the (not yet absorbed) throughput keeps band weights tame.
                     double num = 0.0, den = 0.0;
                     for (int k = 0; k < nb; ++k) {
-                        beta.v[k] *= std::exp(-w.a.v[k] * dt);
                         num += beta.v[k] * (w.b.v[k] / w.majorant);
                         den += beta.v[k];
                     }
                     if (!(den > 0.0)) return L;
                     double p_real = num / den;
-                    if (rng.uniform() < p_real) {
+                    if (p_real >= 1.0 || rng.uniform() < p_real) {
                         for (int k = 0; k < nb; ++k) beta.v[k] *= (w.b.v[k] / w.majorant) / p_real;
                         scattered = true;
                         break;
                     }
                     for (int k = 0; k < nb; ++k) beta.v[k] *= (1.0 - w.b.v[k] / w.majorant) / (1.0 - p_real);
+                    if (clipped) {  // a null collision: now find the surface beyond it
+                        h = intersect(o + d * t_cur, d);
+                        c.segments++;
+                        clipped = false;
+                        if (h.valid) h.t += t_cur;
+                        t_hit = h.valid ? h.t : kInf;
+                    }
+                    dt = -std::log(1.0 - rng.uniform()) / w.majorant;
                 }
+            } else {
+                h = intersect(o, d);
+                c.segments++;
+                t_hit = h.valid ? h.t : kInf;
             }
             if (scattered) {
                 if (++depth > max_depth) return L;
@@ -129,14 +155,18 @@ Spectrum Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, Rng& rng, Co
                 d = nd;
                 sun_covered = false;  // no straight connection to the sun from inside water
                 if (depth >= rr_depth) {
-                    double q = std::min(0.95, max_component(beta, nb));
+                    double q = std::min(0.95, max_component(beta, nb) * std::exp(-w.a_min * pending));
                     if (!(rng.uniform() < q)) return L;
                     for (int k = 0; k < nb; ++k) beta.v[k] /= q;
                 }
                 continue;
             }
             if (!h.valid) return L;  // lost in infinitely deep water
-            for (int k = 0; k < nb; ++k) beta.v[k] *= std::exp(-w.a.v[k] * (t_hit - t_cur));
+            pending += t_hit - t_cur;
+        } else {
+            h = intersect(o, d);
+            c.segments++;
+            t_hit = h.valid ? h.t : kInf;
         }
 
         if (!h.valid) {  // escaped to the environment
@@ -187,6 +217,7 @@ Spectrum Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, Rng& rng, Co
                 d = normalize(reflect(d, nf));
                 o = x + nf * off;
             } else {
+                if (!entering) flush(w);  // leaving the water: beta must carry its absorption
                 double r = n1 / n2;
                 for (int k = 0; k < nb; ++k) beta.v[k] *= r * r;  // radiance n^2 law
                 d = dt;
@@ -196,7 +227,8 @@ Spectrum Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, Rng& rng, Co
             sun_covered = false;  // a specular event: NEE could not have seen this path
         }
         if (depth >= rr_depth) {
-            double q = std::min(0.95, max_component(beta, nb));
+            double bound = medium >= 0 ? std::exp(-waters[medium].a_min * pending) : 1.0;
+            double q = std::min(0.95, max_component(beta, nb) * bound);
             if (!(q > 0.0) || !(rng.uniform() < q)) return L;
             for (int k = 0; k < nb; ++k) beta.v[k] /= q;
         }

@@ -25,6 +25,12 @@ PhaseFunction PhaseFunction::table(const std::vector<double>& x, const std::vect
     for (auto& c : p.cdf_) c /= total;
     for (auto& val : p.v_) val /= total;
     p.cdf_.back() = 1.0;
+    const size_t G = 512;
+    p.guide_.resize(G + 1);
+    for (size_t j = 0; j <= G; ++j) {
+        double u = double(j) / G;
+        p.guide_[j] = uint32_t(std::upper_bound(p.cdf_.begin(), p.cdf_.end(), u) - p.cdf_.begin());
+    }
     return p;
 }
 
@@ -73,7 +79,11 @@ double PhaseFunction::sample_x(double u) const {
             return std::clamp(1.0 - mu, 0.0, 2.0);
         }
         case kTable: {
-            auto it = std::upper_bound(cdf_.begin(), cdf_.end(), u);
+            size_t G = guide_.size() - 1;
+            size_t j = std::min(G - 1, size_t(u * G));
+            auto lo = cdf_.begin() + std::max<ptrdiff_t>(ptrdiff_t(guide_[j]) - 1, 0);
+            auto hi = cdf_.begin() + std::min<size_t>(guide_[j + 1] + 1, cdf_.size());
+            auto it = std::upper_bound(lo, hi, u);
             size_t i = std::min<size_t>(std::max<ptrdiff_t>(it - cdf_.begin(), 1), cdf_.size() - 1);
             double dx = x_[i] - x_[i - 1];
             double v0 = v_[i - 1], slope = (v_[i] - v_[i - 1]) / dx;

@@ -2,6 +2,7 @@
 // pdf in solid angle) and sample. Angles are passed as x = 1 - cos(psi), which keeps full
 // precision in the forward peak where natural waters scatter most of their light.
 #pragma once
+#include <cstdint>
 #include <vector>
 #include <string>
 #include <stdexcept>
@@ -41,6 +42,7 @@ private:
     Kind kind_ = kIsotropic;
     double g_ = 0.0, a_ = 0.0;
     std::vector<double> x_, v_, cdf_;
+    std::vector<uint32_t> guide_;  // guide_[j]: first CDF node above j / size (narrows the search)
 };
 
 }  // namespace photic

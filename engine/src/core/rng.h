@@ -1,4 +1,4 @@
-// Counter-based random streams: every (seed, stream, sample) triple starts its own PCG32
+// Counter-based random streams: every (seed, stream, sample) triple starts its own
 // generator, so results do not depend on which thread computed which sample.
 #pragma once
 #include <cstdint>
@@ -12,30 +12,25 @@ inline uint64_t mix64(uint64_t z) {  // SplitMix64 finaliser
     return z ^ (z >> 31);
 }
 
+// xoshiro256+ (Blackman & Vigna): 64 bits per call, the top 53 make a double.
 class Rng {
 public:
     Rng(uint64_t seed, uint64_t stream, uint64_t sample) {
         uint64_t h = mix64(seed ^ mix64(stream ^ mix64(sample)));
-        inc_ = (mix64(h + 0x632be59bd9b4e019ull) << 1u) | 1u;
-        state_ = 0;
-        next_u32();
-        state_ += h;
-        next_u32();
+        for (auto& w : s_) { h += 0x9e3779b97f4a7c15ull; w = mix64(h); }
     }
-    uint32_t next_u32() {
-        uint64_t old = state_;
-        state_ = old * 6364136223846793005ull + inc_;
-        uint32_t xorshifted = static_cast<uint32_t>(((old >> 18u) ^ old) >> 27u);
-        uint32_t rot = static_cast<uint32_t>(old >> 59u);
-        return (xorshifted >> rot) | (xorshifted << ((-rot) & 31));
+    uint64_t next() {
+        const uint64_t result = s_[0] + s_[3];
+        const uint64_t t = s_[1] << 17;
+        s_[2] ^= s_[0]; s_[3] ^= s_[1]; s_[1] ^= s_[2]; s_[0] ^= s_[3];
+        s_[2] ^= t;
+        s_[3] = (s_[3] << 45) | (s_[3] >> 19);
+        return result;
     }
     // Uniform in [0, 1) with 53 random bits.
-    double uniform() {
-        uint64_t hi = next_u32(), lo = next_u32();
-        return static_cast<double>(((hi << 32) | lo) >> 11) * (1.0 / 9007199254740992.0);
-    }
+    double uniform() { return static_cast<double>(next() >> 11) * (1.0 / 9007199254740992.0); }
 private:
-    uint64_t state_, inc_;
+    uint64_t s_[4];
 };
 
 }  // namespace photic

@@ -29,13 +29,6 @@ RTCScene build_embree_scene(RTCDevice device, const std::vector<const MeshRecord
     return scene;
 }
 
-Vec3 triangle_normal(const MeshRecord& m, unsigned prim) {
-    const uint32_t* t = &m.triangles[3 * prim];
-    auto v = [&](uint32_t i) { return Vec3(m.vertices[3 * i], m.vertices[3 * i + 1], m.vertices[3 * i + 2]); };
-    Vec3 a = v(t[0]), b = v(t[1]), c = v(t[2]);
-    return normalize(cross(b - a, c - a));
-}
-
 RTCRayHit make_rayhit(const Vec3& o, const Vec3& d, double tmin, double tmax) {
     RTCRayHit rh;
     rh.ray.org_x = float(o.x); rh.ray.org_y = float(o.y); rh.ray.org_z = float(o.z);
@@ -158,17 +151,19 @@ bool Scene::intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit)
     return false;
 }
 
-Hit Scene::intersect(const Vec3& o, const Vec3& d) const {
+Hit Scene::intersect(const Vec3& o, const Vec3& d, double tmax) const {
     Hit hit;
+    hit.t = tmax;
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
-    RTCRayHit rh = make_rayhit(o, d, 0.0, kInf);
+    RTCRayHit rh = make_rayhit(o, d, 0.0, tmax);
     rtcIntersect1(scene_, &ctx, &rh);
     if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
         const MeshRecord& m = meshes[rh.hit.geomID];
         hit.valid = true;
         hit.t = rh.ray.tfar;
-        hit.n = triangle_normal(m, rh.hit.primID);
+        // Embree's geometric normal is (v1 - v0) x (v2 - v0), the same winding convention.
+        hit.n = normalize(Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z));
         hit.kind = m.kind;
         hit.index = m.index;
     }

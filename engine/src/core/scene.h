@@ -34,6 +34,7 @@ struct Water {
     Spectrum b;                          // total scattering per band, 1/m
     std::vector<ScatterComponent> components;
     double majorant = 0.0;               // >= b in every band (delta tracking)
+    double a_min = 0.0;                  // smallest absorption over the bands
 };
 
 enum class SurfaceKind : int { kOpaque = 0, kWaterBoundary = 1 };
@@ -77,7 +78,7 @@ struct Camera {
     int medium = -1;
 };
 
-struct Counters {
+struct alignas(64) Counters {  // one cache line each: no false sharing between threads
     uint64_t segments = 0;   // ray-geometry queries along paths (closest hit)
     uint64_t shadow_rays = 0;
     uint64_t paths = 0;
@@ -126,7 +127,7 @@ public:
     void commit();                    // builds the BVHs and resolves sensor media
 
     // --- queries ----------------------------------------------------------------
-    Hit intersect(const Vec3& o, const Vec3& d) const;
+    Hit intersect(const Vec3& o, const Vec3& d, double tmax = kInf) const;  // closest hit before tmax
     bool occluded(const Vec3& o, const Vec3& d) const;  // to infinity
     int medium_at(const Vec3& p) const;
     double offset_for(const Vec3& p) const { return eps_ + 4e-6 * max_abs(p); }
