@@ -325,10 +325,12 @@ def format_table(records: list[dict]) -> str:
     lines.append("")
     lines += [f"[{i + 1}] {n}" for i, n in enumerate(notes)]
     lines.append("")
-    lines.append("What limits the engine: each path segment is one scalar rtcIntersect1 (the "
-                 "same call as a native raw ray) plus, in water, free-path sampling with a "
-                 "per-band exp() per collision, phase-function or Fresnel sampling, the RNG and "
-                 "path bookkeeping; raw rays only traverse the BVH. Wall time per segment / ray:")
+    lines.append("What limits the engine: each path segment is one scalar rtcIntersect1 plus the "
+                 "physics (free-path sampling, phase-function or Fresnel sampling, the RNG, path "
+                 "bookkeeping). In water the ray is traced only up to the sampled collision "
+                 "distance, so it is cheaper than a raw ray cast to infinity; absorption is "
+                 "applied once per band when a path leaves the water. Raw rays only traverse the "
+                 "BVH. Wall time per segment / ray:")
     for r in records:
         seg_ns, ray_ns = 1e9 / r["engine_segments_per_s"], 1e9 / r["native_rays_per_s"]
         lines.append(f"  {r['scene']} ({r['threads']} thr): {seg_ns:.0f} ns per segment vs "
