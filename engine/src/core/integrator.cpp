@@ -11,29 +11,14 @@
 #include <thread>
 #include <vector>
 #include "optics.h"
+#include "parallel.h"
 #include "scene.h"
 
 namespace photic {
 
-template <class F>
-void parallel_for(size_t n, int threads, F&& body) {
-    if (threads <= 0) threads = int(std::max(1u, std::thread::hardware_concurrency()));
-    threads = int(std::min<size_t>(size_t(threads), std::max<size_t>(n, 1)));
-    std::atomic<size_t> next{0};
-    auto worker = [&](int tid) {
-        for (;;) {
-            size_t i = next.fetch_add(1);
-            if (i >= n) break;
-            body(i, tid);
-        }
-    };
-    if (threads == 1) { worker(0); return; }
-    std::vector<std::thread> pool;
-    for (int t = 0; t < threads; ++t) pool.emplace_back(worker, t);
-    for (auto& th : pool) th.join();
-}
-
 namespace {
+
+constexpr int kMaxBeams = 64;  // beams summed at one point (overlaps in strong caustics)
 
 Vec3 cosine_hemisphere(const Vec3& n, double u1, double u2) {
     // 1 - cos(theta) = 1 - sqrt(1 - u1)
@@ -49,21 +34,25 @@ double max_component(const Spectrum& s, int nb) {
 
 }  // namespace
 
-Spectrum Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, Rng& rng, Counters& c) const {
+Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
+                        Counters& c) const {
     const int nb = nbands;
-    Spectrum L;
+    Components out;
     Spectrum beta = Spectrum::constant(1.0);
     int depth = 0;
     c.paths++;
     // Absorption is applied lazily: `pending` metres travelled in the current water body
-    // since beta last carried exp(-a s). Light is only scored in air, so beta must be exact
-    // only when the path leaves the water; Russian roulette uses a bound meanwhile.
+    // since beta last carried exp(-a s). Light is scored in water only by the beam terms
+    // (which apply it themselves); Russian roulette uses a bound meanwhile.
     double pending = 0.0;
     auto flush = [&](const Water& w) {
         if (pending > 0.0)
             for (int k = 0; k < nb; ++k) beta.v[k] *= std::exp(-w.a.v[k] * pending);
         pending = 0.0;
     };
+    const double cone_x = 1.0 - std::cos(cone_half_angle);
+    BeamSample beams[kMaxBeams];
+
     for (;;) {
         Hit h;
         double t_hit;
@@ -71,97 +60,140 @@ Spectrum Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, Rng& rng, Co
             const Water& w = waters[medium];
             bool scattered = false;
             double t_cur = 0.0;
-            if (w.majorant > 0.0) {
-                // Sample the first tentative collision before tracing, and trace only that
-                // far: short rays are cheaper, and most flights in water end in the volume.
-                double dt = -std::log(1.0 - rng.uniform()) / w.majorant;
+            double dt = kInf;
+            bool clipped = false;
+            if (w.majorant > 0.0) dt = -std::log(1.0 - rng.uniform()) / w.majorant;
+            if (!hybrid && w.majorant > 0.0) {
+                // Trace only to the first tentative collision: short rays are cheaper, and most
+                // flights in water end in the volume.
                 h = intersect(o, d, dt);
-                c.segments++;
-                bool clipped = !h.valid;  // nothing before dt; what lies beyond is unknown
-                t_hit = h.valid ? h.t : kInf;
-                while (t_cur + dt < t_hit) {
-                    t_cur += dt;
-                    pending += dt;
-                    // Any probability fixed before the decision keeps the estimate unbiased;
-                    // weighting by the (not yet absorbed) throughput keeps band weights tame.
-                    double num = 0.0, den = 0.0;
-                    for (int k = 0; k < nb; ++k) {
-                        num += beta.v[k] * (w.b.v[k] / w.majorant);
-                        den += beta.v[k];
-                    }
-                    if (!(den > 0.0)) return L;
-                    double p_real = num / den;
-                    if (p_real >= 1.0 || rng.uniform() < p_real) {
-                        for (int k = 0; k < nb; ++k) beta.v[k] *= (w.b.v[k] / w.majorant) / p_real;
-                        scattered = true;
-                        break;
-                    }
-                    for (int k = 0; k < nb; ++k) beta.v[k] *= (1.0 - w.b.v[k] / w.majorant) / (1.0 - p_real);
-                    if (clipped) {  // a null collision: now find the surface beyond it
-                        h = intersect(o + d * t_cur, d);
-                        c.segments++;
-                        clipped = false;
-                        if (h.valid) h.t += t_cur;
-                        t_hit = h.valid ? h.t : kInf;
-                    }
-                    dt = -std::log(1.0 - rng.uniform()) / w.majorant;
-                }
+                clipped = !h.valid;  // nothing before dt; what lies beyond is unknown
             } else {
-                h = intersect(o, d);
-                c.segments++;
-                t_hit = h.valid ? h.t : kInf;
+                h = intersect(o, d);  // the beam terms need the segment's whole length
+            }
+            c.segments++;
+            t_hit = h.valid ? h.t : kInf;
+
+            if (hybrid && w.c_path_mean > 0.0 && t_hit > 0.0 && (!prisms.empty() || flat_beam)) {
+                // Single scattering of the beams along the whole segment [0, t_hit]: one
+                // distance drawn with pdf proportional to exp(-k t) on the segment, where k
+                // follows the integrand: attenuation back to the segment's start (c) and the
+                // beams growing towards the surface (c_beam per metre of beam path, which
+                // changes by -d_z / mu_w per metre along the segment).
+                double k = w.c_path_mean * (1.0 - d.z / beam_mu_w);
+                bool finite = t_hit < kInf;
+                if (!finite && k < 0.5 * w.c_path_mean) k = 0.5 * w.c_path_mean;
+                double u = rng.uniform();
+                double t, pdf;
+                if (finite && std::fabs(k) * t_hit < 1e-6) {
+                    t = u * t_hit;
+                    pdf = 1.0 / t_hit;
+                } else {
+                    double ak = std::fabs(k);
+                    double norm = finite ? -std::expm1(-ak * t_hit) : 1.0;
+                    double s_ = -std::log1p(-u * norm) / ak;  // from the start (k > 0) or the end
+                    t = k > 0 ? s_ : t_hit - s_;
+                    pdf = ak * std::exp(-ak * s_) / norm;
+                }
+                Vec3 x = o + d * t;
+                int n = beams_at(x, medium, beams, kMaxBeams);
+                for (int j = 0; j < n; ++j) {
+                    double xs = std::max(0.0, 1.0 + dot(beams[j].d, d));  // 1 - cos(psi)
+                    if (xs < cone_x) continue;  // inside the cone the light stays in the beam
+                    double pv[16];
+                    for (size_t ci = 0; ci < w.components.size(); ++ci) pv[ci] = phases[w.components[ci].phase].eval(xs);
+                    for (int kb = 0; kb < nb; ++kb) {
+                        double bp = 0.0;
+                        for (size_t ci = 0; ci < w.components.size(); ++ci) bp += w.components[ci].b.v[kb] * pv[ci];
+                        double att = std::exp(-w.a.v[kb] * pending - w.c_path.v[kb] * t);
+                        out.beam_volume.v[kb] += beta.v[kb] * att * bp * beams[j].e.v[kb] / pdf;
+                    }
+                }
+            }
+
+            while (t_cur + dt < t_hit) {
+                t_cur += dt;
+                pending += dt;
+                // Any probability fixed before the decision keeps the estimate unbiased;
+                // weighting by the (not yet absorbed) throughput keeps band weights tame.
+                double num = 0.0, den = 0.0;
+                for (int k = 0; k < nb; ++k) {
+                    num += beta.v[k] * (w.b_path.v[k] / w.majorant);
+                    den += beta.v[k];
+                }
+                if (!(den > 0.0)) return out;
+                double p_real = num / den;
+                if (p_real >= 1.0 || rng.uniform() < p_real) {
+                    for (int k = 0; k < nb; ++k) beta.v[k] *= (w.b_path.v[k] / w.majorant) / p_real;
+                    scattered = true;
+                    break;
+                }
+                for (int k = 0; k < nb; ++k) beta.v[k] *= (1.0 - w.b_path.v[k] / w.majorant) / (1.0 - p_real);
+                if (clipped) {  // a null collision: now find the surface beyond it
+                    h = intersect(o + d * t_cur, d);
+                    c.segments++;
+                    clipped = false;
+                    if (h.valid) h.t += t_cur;
+                    t_hit = h.valid ? h.t : kInf;
+                }
+                dt = -std::log(1.0 - rng.uniform()) / w.majorant;
             }
             if (scattered) {
-                if (++depth > max_depth) return L;
+                if (++depth > max_depth) return out;
                 o = o + d * t_cur;
                 // Choose a mixture component by its throughput-weighted share of scattering,
-                // sample it, and weight each band by its own phase function over the pdf.
+                // sample it (outside the forward cone), and weight each band by its own
+                // phase function over the mixture pdf.
                 size_t nc = w.components.size();
                 Vec3 nd;
                 if (nc == 1) {
-                    const PhaseFunction& pf = phases[w.components[0].phase];
-                    double u1 = rng.uniform(), u2 = rng.uniform();
-                    nd = pf.sample_direction(d, u1, u2);
+                    const ScatterComponent& sc = w.components[0];
+                    double u1 = sc.f + rng.uniform() * (1.0 - sc.f), u2 = rng.uniform();
+                    nd = phases[sc.phase].sample_direction(d, u1, u2);
                 } else {
-                    double q[32];
+                    double q[16];
                     double qsum = 0.0, wsum = 0.0;
                     for (int k = 0; k < nb; ++k) wsum += beta.v[k];
                     for (size_t ci = 0; ci < nc; ++ci) {
-                        double s = 0.0;
+                        double sacc = 0.0;
                         for (int k = 0; k < nb; ++k)
-                            if (w.b.v[k] > 0) s += beta.v[k] * w.components[ci].b.v[k] / w.b.v[k];
-                        q[ci] = wsum > 0 ? s / wsum : 0.0;
+                            if (w.b_path.v[k] > 0) sacc += beta.v[k] * w.components[ci].b_path.v[k] / w.b_path.v[k];
+                        q[ci] = wsum > 0 ? sacc / wsum : 0.0;
                         qsum += q[ci];
                     }
+                    if (!(qsum > 0.0)) return out;
                     double u = rng.uniform() * qsum;
                     size_t pick = 0;
                     while (pick + 1 < nc && u >= q[pick]) { u -= q[pick]; ++pick; }
-                    double u1 = rng.uniform(), u2 = rng.uniform();
-                    nd = phases[w.components[pick].phase].sample_direction(d, u1, u2);
+                    const ScatterComponent& sc = w.components[pick];
+                    double u1 = sc.f + rng.uniform() * (1.0 - sc.f), u2 = rng.uniform();
+                    nd = phases[sc.phase].sample_direction(d, u1, u2);
                     double x = std::max(0.0, 1.0 - dot(d, nd));
-                    double pv[32];
+                    double pv[16];  // truncated, renormalised phase functions
                     double pdf = 0.0;
                     for (size_t ci = 0; ci < nc; ++ci) {
-                        pv[ci] = phases[w.components[ci].phase].eval(x);
+                        const ScatterComponent& cc = w.components[ci];
+                        pv[ci] = (x >= cone_x && cc.f < 1.0) ? phases[cc.phase].eval(x) / (1.0 - cc.f) : 0.0;
                         pdf += (q[ci] / qsum) * pv[ci];
                     }
                     for (int k = 0; k < nb; ++k) {
-                        if (!(w.b.v[k] > 0)) continue;
+                        if (!(w.b_path.v[k] > 0)) continue;
                         double pk = 0.0;
-                        for (size_t ci = 0; ci < nc; ++ci) pk += w.components[ci].b.v[k] * pv[ci];
-                        beta.v[k] *= pdf > 0 ? (pk / w.b.v[k]) / pdf : 0.0;
+                        for (size_t ci = 0; ci < nc; ++ci) pk += w.components[ci].b_path.v[k] * pv[ci];
+                        beta.v[k] *= pdf > 0 ? (pk / w.b_path.v[k]) / pdf : 0.0;
                     }
                 }
                 d = nd;
-                sun_covered = false;  // no straight connection to the sun from inside water
+                sun_covered = false;   // no straight connection to the sun from inside water
+                beam_covered = hybrid; // the beams already count the sun arriving here straight
                 if (depth >= rr_depth) {
                     double q = std::min(0.95, max_component(beta, nb) * std::exp(-w.a_min * pending));
-                    if (!(rng.uniform() < q)) return L;
+                    if (!(rng.uniform() < q)) return out;
                     for (int k = 0; k < nb; ++k) beta.v[k] /= q;
                 }
                 continue;
             }
-            if (!h.valid) return L;  // lost in infinitely deep water
+            if (!h.valid) return out;  // lost in infinitely deep water
             pending += t_hit - t_cur;
         } else {
             h = intersect(o, d);
@@ -171,15 +203,15 @@ Spectrum Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, Rng& rng, Co
 
         if (!h.valid) {  // escaped to the environment
             Spectrum sky = sky_radiance(d);
-            bool sun = !sun_covered && in_sun(d);
+            bool sun = !sun_covered && !beam_covered && in_sun(d);
             for (int k = 0; k < nb; ++k)
-                L.v[k] += beta.v[k] * (sky.v[k] + (sun ? sun_radiance.v[k] : 0.0));
-            return L;
+                out.path.v[k] += beta.v[k] * (sky.v[k] + (sun ? sun_radiance.v[k] : 0.0));
+            return out;
         }
 
         Vec3 x = o + d * t_hit;
         double off = offset_for(x);
-        if (++depth > max_depth) return L;
+        if (++depth > max_depth) return out;
 
         if (h.kind == SurfaceKind::kOpaque) {
             Vec3 n = dot(h.n, d) > 0.0 ? -h.n : h.n;  // face the arriving ray
@@ -195,11 +227,23 @@ Spectrum Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, Rng& rng, Co
                     if (!occluded(xo, ws)) {
                         double f = cs * kInvPi / sun_pdf();
                         for (int k = 0; k < nb; ++k)
-                            L.v[k] += beta.v[k] * m.reflectance.v[k] * sun_radiance.v[k] * f;
+                            out.path.v[k] += beta.v[k] * m.reflectance.v[k] * sun_radiance.v[k] * f;
                     }
                 }
             }
+            if (hybrid && medium >= 0) {
+                // The refracted sun on an underwater surface: every beam covering the point.
+                flush(waters[medium]);
+                int nbm = beams_at(xo, medium, beams, kMaxBeams);
+                for (int j = 0; j < nbm; ++j) {
+                    double cs = -dot(beams[j].d, n);
+                    if (cs <= 0.0) continue;
+                    for (int k = 0; k < nb; ++k)
+                        out.beam_surface.v[k] += beta.v[k] * m.reflectance.v[k] * kInvPi * cs * beams[j].e.v[k];
+                }
+            }
             sun_covered = nee;
+            beam_covered = hybrid && medium >= 0;
             double u1 = rng.uniform(), u2 = rng.uniform();
             d = cosine_hemisphere(n, u1, u2);
             for (int k = 0; k < nb; ++k) beta.v[k] *= m.reflectance.v[k];
@@ -212,45 +256,65 @@ Spectrum Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, Rng& rng, Co
             Vec3 nf = entering ? h.n : -h.n;
             double cos_i = -dot(d, nf);
             double F = fresnel_unpolarized(cos_i, n1, n2);
-            Vec3 dt;
-            if (rng.uniform() < F || !refract(d, nf, n1, n2, &dt)) {
+            Vec3 dtr;
+            if (rng.uniform() < F || !refract(d, nf, n1, n2, &dtr)) {
                 d = normalize(reflect(d, nf));
                 o = x + nf * off;
+                beam_covered = false;  // a reflected path is not a beam's straight line
             } else {
                 if (!entering) flush(w);  // leaving the water: beta must carry its absorption
                 double r = n1 / n2;
                 for (int k = 0; k < nb; ++k) beta.v[k] *= r * r;  // radiance n^2 law
-                d = dt;
+                d = dtr;
                 o = x - nf * off;
                 medium = entering ? h.index : -1;
+                if (entering) beam_covered = false;
             }
             sun_covered = false;  // a specular event: NEE could not have seen this path
         }
         if (depth >= rr_depth) {
             double bound = medium >= 0 ? std::exp(-waters[medium].a_min * pending) : 1.0;
             double q = std::min(0.95, max_component(beta, nb) * bound);
-            if (!(q > 0.0) || !(rng.uniform() < q)) return L;
+            if (!(q > 0.0) || !(rng.uniform() < q)) return out;
             for (int k = 0; k < nb; ++k) beta.v[k] /= q;
         }
     }
 }
 
+namespace {
+
+// Adds one sample's components to the running sums: component 0 is their total.
+inline void accumulate(const Spectrum* comp, int nb, double* s, double* s2) {
+    for (int k = 0; k < nb; ++k) {
+        double tot = comp[1].v[k] + comp[2].v[k] + comp[3].v[k] + comp[4].v[k];
+        s[k] += tot;
+        s2[k] += tot * tot;
+    }
+    for (int ci = 1; ci < kNumComponents; ++ci)
+        for (int k = 0; k < nb; ++k) {
+            double v = comp[ci].v[k];
+            s[ci * nb + k] += v;
+            s2[ci * nb + k] += v * v;
+        }
+}
+
+}  // namespace
+
 void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
                           double* sum, double* sumsq, Counters* total) const {
     const Camera& cam = cameras.at(ci);
     const int nb = nbands;
-    size_t npix = size_t(cam.width) * size_t(cam.height);
-    std::vector<Counters> per_thread(64);
+    const size_t stride = size_t(kNumComponents) * nb;
     int nthreads = threads <= 0 ? int(std::max(1u, std::thread::hardware_concurrency())) : threads;
-    per_thread.resize(std::max(64, nthreads));
+    std::vector<Counters> per_thread(std::max(64, nthreads));
     // One task per row: a pixel's samples are always summed by one thread in order.
     parallel_for(size_t(cam.height), nthreads, [&](size_t row, int tid) {
         if (cancel_flag.load(std::memory_order_relaxed)) return;
         Counters& cnt = per_thread[tid];
         for (int px = 0; px < cam.width; ++px) {
             size_t pix = row * size_t(cam.width) + size_t(px);
-            double* s = sum + pix * nb;
-            double* s2 = sumsq + pix * nb;
+            double* s = sum + pix * stride;
+            double* s2 = sumsq + pix * stride;
             for (uint64_t si = start; si < start + count; ++si) {
                 Rng rng(seed, 0x100000000ull * uint64_t(ci + 1), uint64_t(pix) * 0x100000000ull + si);
                 double fx, fy;
@@ -276,8 +340,9 @@ void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
                     d = normalize(cam.forward + cam.right * (sx * cam.tan_half_fov) +
                                   cam.up * (sy * cam.tan_half_fov * aspect));
                 }
-                Spectrum L = trace(o, d, cam.medium, false, rng, cnt);
-                for (int k = 0; k < nb; ++k) { s[k] += L.v[k]; s2[k] += L.v[k] * L.v[k]; }
+                Components L = trace(o, d, cam.medium, false, false, rng, cnt);
+                Spectrum comp[kNumComponents] = {Spectrum(), L.beam_surface, L.beam_volume, L.path, Spectrum()};
+                accumulate(comp, nb, s, s2);
             }
         }
     });
@@ -285,17 +350,16 @@ void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
         for (const auto& c : per_thread) {
             total->segments += c.segments; total->shadow_rays += c.shadow_rays; total->paths += c.paths;
         }
-    (void)npix;
 }
 
-double Scene::radiometer_sample(int ri, uint64_t index, Spectrum* out, int* bin, Counters& c) const {
+void Scene::radiometer_sample(int ri, uint64_t index, Spectrum* out, int* bin, Counters& c) const {
     const Radiometer& r = radiometers[ri];
     Rng rng(seed, 0x7000000000000000ull + uint64_t(ri), index);
     double u1 = rng.uniform(), u2 = rng.uniform();
     Vec3 w;            // look direction: light arrives travelling along -w
     double weight;     // response / pdf
     *bin = 0;
-    auto response = [&](const Vec3& v) -> double {  // W(v) for the sun's next-event estimate
+    auto response = [&](const Vec3& v) -> double {  // W(v) for the sun's and beams' direct terms
         switch (r.quantity) {
             case Quantity::kEd: return std::max(0.0, v.z);
             case Quantity::kEu: return std::max(0.0, -v.z);
@@ -340,9 +404,15 @@ double Scene::radiometer_sample(int ri, uint64_t index, Spectrum* out, int* bin,
             break;
         }
     }
+    for (int ci = 0; ci < kNumComponents; ++ci) out[ci] = Spectrum();
     bool sensor_nee = has_sun && r.medium < 0;
-    Spectrum L = trace(r.position, w, r.medium, sensor_nee, rng, c);
-    for (int k = 0; k < nbands; ++k) L.v[k] *= weight;
+    bool sensor_beams = hybrid && r.medium >= 0;
+    Components L = trace(r.position, w, r.medium, sensor_nee, sensor_beams, rng, c);
+    for (int k = 0; k < nbands; ++k) {
+        out[1].v[k] = L.beam_surface.v[k] * weight;
+        out[2].v[k] = L.beam_volume.v[k] * weight;
+        out[3].v[k] = L.path.v[k] * weight;
+    }
     if (sensor_nee) {
         double s1 = rng.uniform(), s2 = rng.uniform();
         Vec3 ws = sample_sun(s1, s2);
@@ -350,42 +420,48 @@ double Scene::radiometer_sample(int ri, uint64_t index, Spectrum* out, int* bin,
         if (resp > 0.0) {
             c.shadow_rays++;
             if (!occluded(r.position, ws))
-                for (int k = 0; k < nbands; ++k) L.v[k] += resp * sun_radiance.v[k] / sun_pdf();
+                for (int k = 0; k < nbands; ++k) out[3].v[k] += resp * sun_radiance.v[k] / sun_pdf();
         }
     }
-    *out = L;
-    return weight;
+    if (sensor_beams) {
+        // The refracted sun at the radiometer itself, in closed form.
+        BeamSample beams[kMaxBeams];
+        int n = beams_at(r.position, r.medium, beams, kMaxBeams);
+        for (int j = 0; j < n; ++j) {
+            double resp = response(-beams[j].d);
+            if (resp > 0.0)
+                for (int k = 0; k < nbands; ++k) out[4].v[k] += resp * beams[j].e.v[k];
+        }
+    }
 }
 
 void Scene::render_radiometer(int ri, uint64_t start, uint64_t count, int threads,
                               double* sum, double* sumsq, Counters* total) const {
     const Radiometer& r = radiometers.at(ri);
     const int nb = nbands, nbins = r.bins();
+    const size_t stride = size_t(kNumComponents) * nb;
     const uint64_t kChunk = 1024;
     size_t nchunks = size_t((count + kChunk - 1) / kChunk);
-    std::vector<double> csum(nchunks * nbins * nb, 0.0), csq(nchunks * nbins * nb, 0.0);
+    std::vector<double> csum(nchunks * nbins * stride, 0.0), csq(nchunks * nbins * stride, 0.0);
     int nthreads = threads <= 0 ? int(std::max(1u, std::thread::hardware_concurrency())) : threads;
     std::vector<Counters> per_thread(std::max(64, nthreads));
     parallel_for(nchunks, nthreads, [&](size_t chunk, int tid) {
         if (cancel_flag.load(std::memory_order_relaxed)) return;
         uint64_t b = start + chunk * kChunk, e = std::min(start + count, b + kChunk);
-        double* s = &csum[chunk * nbins * nb];
-        double* s2 = &csq[chunk * nbins * nb];
+        double* s = &csum[chunk * nbins * stride];
+        double* s2 = &csq[chunk * nbins * stride];
         for (uint64_t i = b; i < e; ++i) {
-            Spectrum L;
+            Spectrum comp[kNumComponents];
             int bin = 0;
-            radiometer_sample(ri, i, &L, &bin, per_thread[tid]);
-            for (int k = 0; k < nb; ++k) {
-                s[bin * nb + k] += L.v[k];
-                s2[bin * nb + k] += L.v[k] * L.v[k];
-            }
+            radiometer_sample(ri, i, comp, &bin, per_thread[tid]);
+            accumulate(comp, nb, s + bin * stride, s2 + bin * stride);
         }
     });
     // Reduce in chunk order so the result is independent of the thread count.
     for (size_t ch = 0; ch < nchunks; ++ch)
-        for (int i = 0; i < nbins * nb; ++i) {
-            sum[i] += csum[ch * nbins * nb + i];
-            sumsq[i] += csq[ch * nbins * nb + i];
+        for (size_t i = 0; i < nbins * stride; ++i) {
+            sum[i] += csum[ch * nbins * stride + i];
+            sumsq[i] += csq[ch * nbins * stride + i];
         }
     if (total)
         for (const auto& c : per_thread) {

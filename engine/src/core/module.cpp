@@ -37,6 +37,7 @@ py::dict counters_dict(const Counters& c) {
 PYBIND11_MODULE(_core, m) {
     m.doc() = "Photic compiled core: Embree geometry, phase functions and the path tracer";
     m.attr("MAX_BANDS") = kMaxBands;
+    m.attr("COMPONENTS") = py::make_tuple("total", "beam_surface", "beam_volume", "path", "beam_direct");
 
     m.def("fresnel", [](double cos_i, double n1, double n2) { return fresnel_unpolarized(cos_i, n1, n2); },
           py::arg("cos_i"), py::arg("n1"), py::arg("n2"),
@@ -61,6 +62,11 @@ PYBIND11_MODULE(_core, m) {
             for (py::ssize_t i = 0; i < x.size(); ++i) out.mutable_data()[i] = p.eval(x.data()[i]);
             return out;
         }, py::arg("x"), "Phase function (1/sr) at x = 1 - cos(psi).")
+        .def("cdf", [](const PhaseFunction& p, DArray x) {
+            DArray out(x.size());
+            for (py::ssize_t i = 0; i < x.size(); ++i) out.mutable_data()[i] = p.cdf(x.data()[i]);
+            return out;
+        }, py::arg("x"), "Fraction scattered into 1 - cos(psi) <= x.")
         .def("sample_x", [](const PhaseFunction& p, DArray u) {
             DArray out(u.size());
             for (py::ssize_t i = 0; i < u.size(); ++i) out.mutable_data()[i] = p.sample_x(u.data()[i]);
@@ -75,6 +81,71 @@ PYBIND11_MODULE(_core, m) {
         .def_readwrite("seed", &Scene::seed)
         .def_readwrite("max_depth", &Scene::max_depth)
         .def_readwrite("rr_depth", &Scene::rr_depth)
+        .def_readwrite("hybrid", &Scene::hybrid)
+        .def_readwrite("beam_max_level", &Scene::beam_max_level)
+        .def_readwrite("beam_min_area_fraction", &Scene::beam_min_area_fraction)
+        .def_readonly("cone_half_angle", &Scene::cone_half_angle)
+        .def("set_forward_cone", &Scene::set_forward_cone, py::arg("half_angle_rad"))
+        .def("build_beams", [](Scene& s, std::array<double, 3> sun_dir, int threads) {
+            py::gil_scoped_release nogil;
+            s.build_beams(to_vec(sun_dir), threads);
+        }, py::arg("sun_direction"), py::arg("threads") = 0,
+           "Builds the beams for one sun direction (drawn in the disk for every pass).")
+        .def_property_readonly("beam_count", [](const Scene& s) { return s.prisms.size(); })
+        .def_property_readonly("has_flat_beam", [](const Scene& s) { return s.flat_beam; })
+        .def("beam_total_flux", &Scene::beam_total_flux)
+        .def("beams_at", [](const Scene& s, std::array<double, 3> x, int medium) {
+            BeamSample buf[256];
+            int n = s.beams_at(to_vec(x), medium, buf, 256);
+            py::list out;
+            for (int i = 0; i < n; ++i) {
+                std::vector<double> e(buf[i].e.v.begin(), buf[i].e.v.begin() + s.nbands);
+                out.append(py::make_tuple(std::array<double, 3>{buf[i].d.x, buf[i].d.y, buf[i].d.z}, e));
+            }
+            return out;
+        }, py::arg("x"), py::arg("medium"), "(direction, irradiance normal to it per band) of every beam at x.")
+        .def("beam_flux_through_plane", [](const Scene& s, double z) {
+            // Sum over prisms of (irradiance on the horizontal plane at the slice centroid) x
+            // (area of the prism's horizontal cross-section at z), band 0. Prisms sliced
+            // horizontally only; the cross-section area is computed here independently.
+            double flux = 0.0;
+            for (const auto& P : s.prisms) {
+                if (P.m.z != -1.0) continue;
+                Vec3 p[3];
+                bool inside = true;
+                for (int j = 0; j < 3; ++j) {
+                    double t = (-z - P.mv[j]) / P.md[j];
+                    if (t < 0.0 || t > P.len[j]) inside = false;
+                    p[j] = P.v[j] + P.d[j] * t;
+                }
+                if (!inside) continue;
+                double area = 0.5 * std::fabs((p[1].x - p[0].x) * (p[2].y - p[0].y) - (p[2].x - p[0].x) * (p[1].y - p[0].y));
+                Vec3 cen = (p[0] + p[1] + p[2]) * (1.0 / 3.0);
+                BeamSample b;
+                if (!s.prism_eval(P, cen, cen, &b)) continue;
+                flux += b.e.v[0] * (-b.d.z) * area;
+            }
+            return flux;
+        }, py::arg("z"))
+        .def("prism_arrays", [](const Scene& s) {
+            // (start vertices (N,3,3), directions (N,3,3), lengths (N,3), flux band 0 (N,))
+            size_t n = s.prisms.size();
+            DArray v({py::ssize_t(n), py::ssize_t(3), py::ssize_t(3)}), d({py::ssize_t(n), py::ssize_t(3), py::ssize_t(3)});
+            DArray len({py::ssize_t(n), py::ssize_t(3)});
+            DArray phi{py::ssize_t(n)};
+            for (size_t i = 0; i < n; ++i) {
+                const auto& P = s.prisms[i];
+                for (int j = 0; j < 3; ++j) {
+                    for (int c = 0; c < 3; ++c) {
+                        v.mutable_at(i, j, c) = P.v[j][c];
+                        d.mutable_at(i, j, c) = P.d[j][c];
+                    }
+                    len.mutable_at(i, j) = P.len[j];
+                }
+                phi.mutable_at(i) = P.phi.v[0];
+            }
+            return py::make_tuple(v, d, len, phi);
+        })
         .def("add_material", [](Scene& s, DArray refl) {
             s.materials.push_back({to_spectrum(refl, s.nbands, "reflectance")});
             return int(s.materials.size()) - 1;
@@ -90,7 +161,9 @@ PYBIND11_MODULE(_core, m) {
             if (comps.size() > 16) throw std::invalid_argument("at most 16 scattering components");
             for (auto& [pid, b] : comps) {
                 if (pid < 0 || pid >= int(s.phases.size())) throw std::invalid_argument("bad phase index");
-                ScatterComponent c{pid, to_spectrum(b, s.nbands, "scattering")};
+                ScatterComponent c;
+                c.phase = pid;
+                c.b = to_spectrum(b, s.nbands, "scattering");
                 for (int k = 0; k < s.nbands; ++k) w.b.v[k] += c.b.v[k];
                 w.components.push_back(c);
             }
@@ -176,7 +249,7 @@ PYBIND11_MODULE(_core, m) {
         .def_property_readonly("cancelled", [](const Scene& s) { return s.cancel_flag.load(); })
         .def("render_camera", [](const Scene& s, int cam, uint64_t start, uint64_t count, int threads) {
             const Camera& c = s.cameras.at(cam);
-            DArray sum({c.height, c.width, s.nbands}), sq({c.height, c.width, s.nbands});
+            DArray sum({c.height, c.width, kNumComponents, s.nbands}), sq({c.height, c.width, kNumComponents, s.nbands});
             std::fill(sum.mutable_data(), sum.mutable_data() + sum.size(), 0.0);
             std::fill(sq.mutable_data(), sq.mutable_data() + sq.size(), 0.0);
             Counters cnt;
@@ -188,7 +261,7 @@ PYBIND11_MODULE(_core, m) {
         }, py::arg("camera"), py::arg("start"), py::arg("count"), py::arg("threads") = 0)
         .def("render_radiometer", [](const Scene& s, int rad, uint64_t start, uint64_t count, int threads) {
             int nbins = s.radiometers.at(rad).bins();
-            DArray sum({nbins, s.nbands}), sq({nbins, s.nbands});
+            DArray sum({nbins, kNumComponents, s.nbands}), sq({nbins, kNumComponents, s.nbands});
             std::fill(sum.mutable_data(), sum.mutable_data() + sum.size(), 0.0);
             std::fill(sq.mutable_data(), sq.mutable_data() + sq.size(), 0.0);
             Counters cnt;

@@ -57,13 +57,41 @@ double PhaseFunction::eval(double x) const {
     return 0.0;
 }
 
+double PhaseFunction::cdf(double x) const {
+    x = std::clamp(x, 0.0, 2.0);
+    switch (kind_) {
+        case kIsotropic: return 0.5 * x;
+        case kHenyeyGreenstein: {
+            if (std::fabs(g_) < 1e-5) return 0.5 * x;
+            // 2 pi int_0^x p dx' = (1 - g^2)/(2g) [1/(1-g) - 1/sqrt(1 + g^2 - 2g(1 - x))]
+            double den = std::sqrt(1.0 + g_ * g_ - 2.0 * g_ * (1.0 - x));
+            return std::clamp((1.0 - g_ * g_) / (2.0 * g_) * (1.0 / (1.0 - g_) - 1.0 / den), 0.0, 1.0);
+        }
+        case kQuadratic: {
+            // mass of mu' in [1 - x, 1] of (1 + a mu^2), normalised by 2 + 2a/3
+            double mu = 1.0 - x;
+            double m = (1.0 - mu) + a_ * (1.0 - mu * mu * mu) / 3.0;
+            return std::clamp(m / (2.0 + 2.0 * a_ / 3.0), 0.0, 1.0);
+        }
+        case kTable: {
+            auto it = std::upper_bound(x_.begin(), x_.end(), x);
+            size_t i = std::min<size_t>(std::max<ptrdiff_t>(it - x_.begin(), 1), x_.size() - 1);
+            double t = x - x_[i - 1];
+            double v0 = v_[i - 1], slope = (v_[i] - v_[i - 1]) / (x_[i] - x_[i - 1]);
+            return std::clamp(cdf_[i - 1] + 2.0 * kPi * (v0 * t + 0.5 * slope * t * t), 0.0, 1.0);
+        }
+    }
+    return 0.0;
+}
+
 double PhaseFunction::sample_x(double u) const {
     switch (kind_) {
         case kIsotropic: return 2.0 * u;
         case kHenyeyGreenstein: {
             if (std::fabs(g_) < 1e-5) return 2.0 * u;
-            // Inverse CDF written for x = 1 - mu directly (no cancellation near mu = 1).
-            double s = (1.0 - g_ * g_) / (1.0 - g_ + 2.0 * g_ * u);
+            // Inverse CDF written for x = 1 - mu directly (no cancellation near mu = 1);
+            // 1 - u so that x grows with u like the other kinds.
+            double s = (1.0 - g_ * g_) / (1.0 - g_ + 2.0 * g_ * (1.0 - u));
             double x = (s - (1.0 - g_)) * (s + (1.0 - g_)) / (2.0 * g_);
             return std::clamp(x, 0.0, 2.0);
         }

@@ -30,7 +30,10 @@ public:
 
     Kind kind() const { return kind_; }
     double eval(double x) const;        // 1/sr
-    double sample_x(double u) const;    // x = 1 - cos(psi), distributed as 2 pi eval(x) dx
+    // x = 1 - cos(psi), distributed as 2 pi eval(x) dx; increasing in u (u = 0 gives x = 0).
+    double sample_x(double u) const;
+    // Fraction of scattering into angles with 1 - cos(psi) <= x (the CDF in x).
+    double cdf(double x) const;
     // Direction after scattering from travel direction d, given two uniforms.
     Vec3 sample_direction(const Vec3& d, double u1, double u2) const {
         return direction_around(d, sample_x(u1), 2.0 * kPi * u2);

@@ -96,6 +96,7 @@ void Scene::commit() {
         extent_ = std::max(1e-3, length(hi - lo));
         eps_ = 1e-6 * extent_;
     }
+    set_forward_cone(cone_half_angle);
     for (auto& c : cameras) c.medium = medium_at(c.position);
     for (auto& r : radiometers) r.medium = medium_at(r.position);
 }
@@ -139,7 +140,7 @@ bool Scene::intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit)
                 auto v = [&](uint32_t k) { return Vec3(patch_vertices[3 * k], patch_vertices[3 * k + 1], patch_vertices[3 * k + 2]); };
                 Vec3 n = normalize(cross(v(tri[1]) - v(tri[0]), v(tri[2]) - v(tri[0])));
                 if (n.z < 0) n = -n;  // water lies below the surface: outward is up
-                hit->valid = true; hit->t = t; hit->n = n;
+                hit->valid = true; hit->t = t; hit->n = n; hit->id = -3;
                 hit->kind = SurfaceKind::kWaterBoundary; hit->index = ocean_water;
                 return true;
             }
@@ -161,6 +162,7 @@ Hit Scene::intersect(const Vec3& o, const Vec3& d, double tmax) const {
     if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
         const MeshRecord& m = meshes[rh.hit.geomID];
         hit.valid = true;
+        hit.id = int(rh.hit.geomID);
         hit.t = rh.ray.tfar;
         // Embree's geometric normal is (v1 - v0) x (v2 - v0), the same winding convention.
         hit.n = normalize(Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z));
@@ -172,7 +174,7 @@ Hit Scene::intersect(const Vec3& o, const Vec3& d, double tmax) const {
             if (d.z != 0.0) {
                 double t = (ocean_z - o.z) / d.z;
                 if (t > 0.0 && t < hit.t) {
-                    hit.valid = true; hit.t = t; hit.n = Vec3(0, 0, 1);
+                    hit.valid = true; hit.t = t; hit.n = Vec3(0, 0, 1); hit.id = -3;
                     hit.kind = SurfaceKind::kWaterBoundary; hit.index = ocean_water;
                 }
             }
@@ -183,7 +185,7 @@ Hit Scene::intersect(const Vec3& o, const Vec3& d, double tmax) const {
         if (has_bottom && d.z != 0.0) {
             double t = (bottom_z - o.z) / d.z;
             if (t > 0.0 && t < hit.t) {
-                hit.valid = true; hit.t = t; hit.n = Vec3(0, 0, 1);
+                hit.valid = true; hit.t = t; hit.n = Vec3(0, 0, 1); hit.id = -2;
                 hit.kind = SurfaceKind::kOpaque; hit.index = bottom_material;
             }
         }
@@ -207,6 +209,11 @@ bool Scene::occluded(const Vec3& o, const Vec3& d) const {
         if (has_bottom && d.z != 0.0 && (bottom_z - o.z) / d.z > 0.0) return true;
     }
     return false;
+}
+
+bool Scene::occluded_segment(const Vec3& o, const Vec3& d, double tmax) const {
+    Hit h = intersect(o, d, tmax);
+    return h.valid;
 }
 
 int Scene::medium_at(const Vec3& p) const {

@@ -13,6 +13,7 @@
 namespace photic {
 
 constexpr int kMaxBands = 16;  // bands per render pass; larger band lists are split in groups
+constexpr int kNumComponents = 5;  // total, beam_surface, beam_volume, path, beam_direct
 
 struct Spectrum {
     std::array<double, kMaxBands> v{};
@@ -26,6 +27,8 @@ struct Material {  // Lambertian
 struct ScatterComponent {
     int phase = 0;   // index into Scene::phases
     Spectrum b;      // scattering coefficient per band, 1/m
+    double f = 0.0;  // fraction of its phase function inside the forward cone (kept in beams)
+    Spectrum b_path; // b (1 - f): what path tracing scatters
 };
 
 struct Water {
@@ -33,8 +36,12 @@ struct Water {
     Spectrum a;                          // absorption per band, 1/m
     Spectrum b;                          // total scattering per band, 1/m
     std::vector<ScatterComponent> components;
-    double majorant = 0.0;               // >= b in every band (delta tracking)
+    double majorant = 0.0;               // >= b_path in every band (delta tracking)
     double a_min = 0.0;                  // smallest absorption over the bands
+    Spectrum b_path;                     // scattering sampled by paths: sum of b (1 - f)
+    Spectrum c_beam;                     // beam attenuation a + b (1 - f)
+    Spectrum c_path;                     // a + b_path: attenuation of light along a path
+    double c_path_mean = 0.0;
 };
 
 enum class SurfaceKind : int { kOpaque = 0, kWaterBoundary = 1 };
@@ -47,6 +54,7 @@ struct MeshRecord {  // one Embree geometry of the main scene
 };
 
 struct Hit {
+    int id = -1;          // Embree geometry id; -2 ocean bottom, -3 ocean surface
     bool valid = false;
     double t = kInf;
     Vec3 n;               // unit geometric normal (outward for water boundaries)
@@ -76,6 +84,33 @@ struct Camera {
     int filter = 0;            // 0 box, 1 gaussian
     double filter_width = 1.0; // px: box full width; gaussian FWHM
     int medium = -1;
+};
+
+// One beam covering a point: its local direction and irradiance normal to it, per band.
+struct BeamSample {
+    Vec3 d;
+    Spectrum e;
+};
+
+// A prism of refracted sunlight below one water-surface triangle (Watt 1990; Nishita &
+// Nakamae 1994): three vertex rays v_i + t d_i, sliced by planes normal to m.
+struct BeamPrism {
+    Vec3 v[3], d[3];
+    double len[3];     // where each vertex ray ends (hit surface, or attenuation cap)
+    Vec3 m;            // slicing normal
+    double md[3], mv[3];
+    Vec3 n_src;        // source triangle normal (pointing to the air side)
+    Spectrum phi;      // flux entering the water through the triangle, per band
+    int water = 0;
+    bool check_visibility = false;  // an object may cut this prism: test a shadow ray
+    Vec3 lo, hi;       // bounding box
+};
+
+// Component passes of the hybrid integrator.
+struct Components {
+    Spectrum beam_surface;  // refracted sun from beams on underwater surfaces
+    Spectrum beam_volume;   // single scattering of beams along traced water segments
+    Spectrum path;          // everything path tracing finds itself (sky, sun above water, ...)
 };
 
 struct alignas(64) Counters {  // one cache line each: no false sharing between threads
@@ -124,6 +159,25 @@ public:
     int max_depth = 256;
     int rr_depth = 8;
 
+    // Hybrid integrator: the refracted sun comes only from beams below the water.
+    bool hybrid = false;
+    double cone_half_angle = 0.0;     // forward-scattering cone (radians); 0: full phase function
+    int beam_max_level = 5;           // adaptive subdivision levels of a surface triangle
+    double beam_min_area_fraction = 1e-9;  // floor of a cross-section, times the source area
+    // Beams of the current pass (rebuilt for every sun direction drawn in the disk).
+    std::vector<BeamPrism> prisms;
+    bool flat_beam = false;           // analytic beam below a flat ocean
+    Vec3 flat_d;                      // its refracted direction
+    Spectrum flat_e0;                 // its irradiance normal to flat_d just below the surface
+    Vec3 beam_sun_dir{0, 0, 1};
+    double beam_mu_w = 1.0;           // cosine of the refracted sun's zenith angle in water
+
+    void set_forward_cone(double half_angle);  // recomputes the waters' path/beam coefficients
+    void build_beams(const Vec3& sun_direction, int threads);
+    // Every beam covering x (in water body `medium`); returns how many were written (<= max).
+    int beams_at(const Vec3& x, int medium, BeamSample* out, int max) const;
+    double beam_total_flux() const;   // sum of prism fluxes entering the water (band 0)
+
     void commit();                    // builds the BVHs and resolves sensor media
 
     // --- queries ----------------------------------------------------------------
@@ -138,33 +192,46 @@ public:
     Vec3 sample_sun(double u1, double u2) const;
     double sun_pdf() const { return 1.0 / (2.0 * kPi * (1.0 - sun_cos_half)); }
 
-    // Radiance arriving at o from direction -d (a backward path started along d).
-    Spectrum trace(Vec3 o, Vec3 d, int medium, bool sun_covered, Rng& rng, Counters& c) const;
+    // Radiance arriving at o from direction -d (a backward path started along d), split into
+    // the hybrid integrator's components (all in `path` for pure path tracing).
+    // sun_covered: NEE already counted the sun seen straight from o; beam_covered: the beams
+    // already count the refracted sun reaching o straight (hybrid).
+    Components trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
+                     Counters& c) const;
+    bool occluded_segment(const Vec3& o, const Vec3& d, double tmax) const;
 
     // --- sensors ----------------------------------------------------------------
-    // Sums over samples [start, start + count) of each pixel, per band.
+    // Sums over samples [start, start + count) of each pixel, per component and band:
+    // sum[(pixel * kNumComponents + component) * nbands + band]; components are
+    // total, beam_surface, beam_volume, path, beam_direct.
     void render_camera(int cam, uint64_t start, uint64_t count, int threads,
                        double* sum, double* sumsq, Counters* total) const;
-    // Sums over samples [start, start + count) per bin and band (chunked, fixed order).
+    // Sums over samples [start, start + count) per bin, component and band (chunked, fixed order).
     void render_radiometer(int rad, uint64_t start, uint64_t count, int threads,
                            double* sum, double* sumsq, Counters* total) const;
-    double radiometer_sample(int rad, uint64_t index, Spectrum* out, int* bin, Counters& c) const;
+    // One radiometer sample: out[component] per band.
+    void radiometer_sample(int rad, uint64_t index, Spectrum* out, int* bin, Counters& c) const;
 
     void trace_rays(const float* o, const float* d, size_t n, int threads, float* t_out) const;
 
     std::atomic<bool> cancel_flag{false};
     double scene_extent() const { return extent_; }
 
-private:
     bool intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit) const;
+    // Beam of prism P at y (primary-patch frame; `world` is the same point unshifted).
+    bool prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, BeamSample* out) const;
+
+private:
+    struct BeamGrid {  // uniform grid over prism bounding boxes (primary patch frame)
+        Vec3 lo, cell;
+        int nx = 0, ny = 0, nz = 0;
+        std::vector<uint32_t> start, items;
+    } grid_;
+    void build_grid();
     RTCDevice device_ = nullptr;
     RTCScene scene_ = nullptr;
     RTCScene patch_scene_ = nullptr;
     double eps_ = 1e-6, extent_ = 1.0;
 };
-
-// Runs body(i) for i in [0, n) on `threads` threads with dynamic scheduling.
-template <class F>
-void parallel_for(size_t n, int threads, F&& body);
 
 }  // namespace photic

@@ -34,8 +34,13 @@ def _oriented_up(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 
 
 def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = None,
-                  max_depth: int | None = None) -> _core.Scene:
-    """Build and commit the core scene for one group of bands."""
+                  max_depth: int | None = None, hybrid: bool = False,
+                  forward_cone_deg: float = 0.0) -> _core.Scene:
+    """Build and commit the core scene for one group of bands.
+
+    ``hybrid`` selects the hybrid integrator (beams must then be built for each pass with
+    ``core.build_beams``); ``forward_cone_deg`` is the forward-scattering cone's half-angle.
+    """
     bands = bands or slice(0, len(scene.bands))
     nb = len(range(*bands.indices(len(scene.bands))))
     if not 1 <= nb <= MAX_BANDS:
@@ -46,6 +51,8 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
     core.nbands = nb
     core.seed = int(scene.settings.seed if seed is None else seed) & ((1 << 64) - 1)
     core.max_depth = int(scene.settings.max_depth if max_depth is None else max_depth)
+    core.hybrid = bool(hybrid)
+    core.beam_max_level = int(scene.settings.beam_max_level)
 
     mat_index = {}
     for name, mat in scene.materials.items():
@@ -106,5 +113,6 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
         core.add_radiometer(QUANTITY_CODES[r.quantity], tuple(map(float, r.position)),
                             tuple(map(float, r.direction)), float(r.half_angle_deg),
                             int(r.polar_bins), int(r.azimuth_bins))
+    core.set_forward_cone(float(np.radians(forward_cone_deg)))
     core.commit()
     return core

@@ -24,12 +24,16 @@ UNITS_IRRADIANCE = "W m^-2 (per unit of the band's source spectrum, e.g. nm^-1)"
 IRRADIANCE_QUANTITIES = {"Ed", "Eu", "Eo", "Eod", "Eou"}
 
 
+COMPONENTS = ("beam_surface", "beam_volume", "path", "beam_direct")
+
+
 @dataclass
 class ImageResult:
     name: str
     mean: np.ndarray          # (H, W, nbands) radiance
     variance: np.ndarray      # (H, W, nbands) variance of the per-pixel mean (standard error^2)
     samples: int              # samples per pixel
+    components: dict = field(default_factory=dict)  # name -> (H, W, nbands) mean
 
     @property
     def units(self) -> str:
@@ -46,6 +50,7 @@ class RadiometerResult:
     stderr: np.ndarray        # (nbins, nbands)
     samples: int              # total samples (shared by the bins of a distribution)
     bins: tuple[int, int] | None = None  # (polar, azimuth) for radiance distributions
+    components: dict = field(default_factory=dict)  # name -> (mean, stderr), each (nbins, nbands)
 
     @property
     def units(self) -> str:
@@ -66,6 +71,62 @@ class RenderResult:
             if r.name == name:
                 return r
         raise KeyError(name)
+
+
+def resolve_integrator(scene: Scene) -> str:
+    """'hybrid' or 'path': the scene's choice, 'auto' meaning hybrid when there is a sun."""
+    choice = scene.settings.integrator
+    if choice == "auto":
+        return "hybrid" if scene.sun is not None else "path"
+    return choice
+
+
+def optical_depth_scale(scene: Scene) -> float:
+    """The largest attenuation depth c * D over the water bodies and bands (D: bottom depth,
+    mesh height; infinite for a bottomless ocean)."""
+    tau = 0.0
+    for w in scene.water:
+        c = float(np.max(np.asarray(w.iops.absorption) + np.asarray(w.iops.total_scattering)))
+        if w.type == "ocean":
+            depth = np.inf if w.bottom_depth is None else float(w.bottom_depth)
+        else:
+            z = np.asarray(w.mesh.vertices)[:, 2]
+            depth = float(z.max() - z.min())
+        tau = max(tau, c * depth if c > 0 else 0.0)
+    return tau
+
+
+AUTO_CONE_TAU = 10.0       # optically deeper than this: use a forward cone
+AUTO_CONE_DEG = 3.0        # its half-angle
+
+
+def resolve_forward_cone(scene: Scene) -> float:
+    """Forward-scattering cone half-angle (degrees) for the hybrid integrator.
+
+    The rule ('auto'): shallow or clear water (c * depth <= 10) keeps the full phase function,
+    which is exact and cheap there; optically deeper water keeps the light scattered within
+    3 degrees of the beam in the beam (c_beam = a + b (1 - f)), which removes the rare, very
+    bright paths that head straight at the refracted sun. The error of each choice on the
+    canonical problems is measured by `photic bench --error` (docs/benchmarks.md).
+    """
+    value = scene.settings.forward_cone_deg
+    if value != "auto":
+        return float(value)
+    return AUTO_CONE_DEG if optical_depth_scale(scene) > AUTO_CONE_TAU else 0.0
+
+
+def sun_direction_in_disk(scene: Scene, rng: np.random.Generator) -> np.ndarray:
+    """A direction drawn uniformly (in solid angle) within the sun's disk."""
+    s = np.asarray(scene.sun.direction, float)
+    alpha = np.radians(scene.sun.angular_diameter_deg) / 2
+    cos_t = 1.0 - rng.random() * (1.0 - np.cos(alpha))
+    phi = 2 * np.pi * rng.random()
+    a = np.array([1.0, 0.0, 0.0]) if abs(s[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(s, a); u /= np.linalg.norm(u)
+    v = np.cross(s, u)
+    sin_t = np.sqrt(max(0.0, 1 - cos_t * cos_t))
+    d = cos_t * s + sin_t * (np.cos(phi) * u + np.sin(phi) * v)
+    return d / np.linalg.norm(d)
 
 
 def _bin_counts(total: int, nbins: int) -> np.ndarray:
@@ -94,9 +155,8 @@ class Renderer:
                  seed: int | None = None, threads: int | None = None):
         scene.validate()
         st = scene.settings
-        if st.integrator != "path":
-            raise SceneError("settings", "integrator",
-                             f"integrator {st.integrator!r} is not available in this version; use 'path'")
+        self.integrator = resolve_integrator(scene)
+        self.forward_cone_deg = resolve_forward_cone(scene) if self.integrator == "hybrid" else 0.0
         self.scene = scene
         self.samples = int(st.samples if samples is None else samples)
         self.radiometer_samples = int(st.radiometer_samples if radiometer_samples is None else radiometer_samples)
@@ -132,10 +192,12 @@ class Renderer:
         scene = self.scene
         radiometers = scene.all_radiometers()
         nb = len(scene.bands)
+        nc = len(COMPONENTS) + 1  # the core's layout: total, then the components
         groups = band_groups(nb)
         threads = self.threads or (os.cpu_count() or 1)
+        hybrid = self.integrator == "hybrid"
         result = RenderResult(scene.name, list(scene.bands))
-        cam_sums = {c.name: [np.zeros((c.resolution[1], c.resolution[0], nb)) for _ in range(2)]
+        cam_sums = {c.name: [np.zeros((c.resolution[1], c.resolution[0], nc, nb)) for _ in range(2)]
                     for c in scene.cameras}
         cam_done = {c.name: 0 for c in scene.cameras}
         rad_sums, rad_done = [], [0] * len(radiometers)
@@ -147,15 +209,29 @@ class Renderer:
         done_work = 0
         counters = {"segments": 0, "shadow_rays": 0, "paths": 0}
         media = [None] * len(radiometers)
+        beam_stats = {"passes": 0, "prisms": 0, "build_s": 0.0}
         t0 = time.perf_counter()
 
         def add_counts(c):
             for k in counters:
                 counters[k] += int(c[k])
 
+        def new_pass(core, gi, key):
+            """Before every pass of the hybrid integrator: beams for a sun direction drawn in
+            the disk (deterministic per seed, band group and pass)."""
+            if not hybrid:
+                return
+            rng = np.random.default_rng([self.seed, gi, *key])
+            tb = time.perf_counter()
+            core.build_beams(tuple(sun_direction_in_disk(scene, rng)), self.threads)
+            beam_stats["build_s"] += time.perf_counter() - tb
+            beam_stats["passes"] += 1
+            beam_stats["prisms"] = max(beam_stats["prisms"], core.beam_count)
+
         cancelled = False
         for gi, g in enumerate(groups):
-            core = compile_scene(scene, g, seed=self.seed)
+            core = compile_scene(scene, g, seed=self.seed, hybrid=hybrid,
+                                 forward_cone_deg=self.forward_cone_deg)
             self._core = core
             if self._cancel.is_set():
                 core.cancel()
@@ -164,9 +240,10 @@ class Renderer:
                 media[ri] = "air" if m < 0 else scene.water[m].name
                 if gi == 0:
                     nbins = core.radiometer_bins(ri)
-                    rad_sums.append([np.zeros((nbins, nb)), np.zeros((nbins, nb))])
+                    rad_sums.append([np.zeros((nbins, nc, nb)), np.zeros((nbins, nc, nb))])
             for ci, cam in enumerate(scene.cameras):
                 for start, n in cam_passes:
+                    new_pass(core, gi, (0, ci, start))
                     s, s2, c = core.render_camera(ci, start, n, self.threads)
                     if core.cancelled:
                         cancelled = True
@@ -185,12 +262,13 @@ class Renderer:
                 if cancelled:
                     break
                 for start, n in rad_passes:
+                    new_pass(core, gi, (1, ri, start))
                     s, s2, c = core.render_radiometer(ri, start, n, self.threads)
                     if core.cancelled:
                         cancelled = True
                         break
-                    rad_sums[ri][0][:, g] += s
-                    rad_sums[ri][1][:, g] += s2
+                    rad_sums[ri][0][..., g] += s
+                    rad_sums[ri][1][..., g] += s2
                     if gi == 0:
                         rad_done[ri] = start + n
                     add_counts(c)
@@ -205,21 +283,27 @@ class Renderer:
         for cam in scene.cameras:
             n = cam_done[cam.name]
             mean, err = _mean_stderr(cam_sums[cam.name][0], cam_sums[cam.name][1], n)
-            result.images[cam.name] = ImageResult(cam.name, mean, err ** 2, n)
+            comps = {name: mean[:, :, i + 1, :] for i, name in enumerate(COMPONENTS[:3])}
+            result.images[cam.name] = ImageResult(cam.name, mean[:, :, 0, :], err[:, :, 0, :] ** 2, n, comps)
         for ri, r in enumerate(radiometers):
             if ri >= len(rad_sums):
                 break
             nbins = rad_sums[ri][0].shape[0]
-            counts = _bin_counts(rad_done[ri], nbins)[:, None]
+            counts = _bin_counts(rad_done[ri], nbins)[:, None, None]
             mean, err = _mean_stderr(rad_sums[ri][0], rad_sums[ri][1], counts)
             bins = (r.polar_bins, r.azimuth_bins) if r.quantity == "radiance_distribution" else None
+            comps = {name: (mean[:, i + 1, :], err[:, i + 1, :]) for i, name in enumerate(COMPONENTS)}
             result.radiometers.append(RadiometerResult(r.name, r.quantity, np.asarray(r.position, float),
-                                                       media[ri] or "air", mean, err, rad_done[ri], bins))
+                                                       media[ri] or "air", mean[:, 0, :], err[:, 0, :],
+                                                       rad_done[ri], bins, comps))
         result.cancelled = cancelled
         result.stats = dict(counters, time_s=elapsed, threads=threads, seed=self.seed,
                             samples=self.samples, radiometer_samples=self.radiometer_samples,
                             segments_per_s=counters["segments"] / elapsed if elapsed > 0 else 0.0,
-                            band_groups=len(groups))
+                            band_groups=len(groups), integrator=self.integrator,
+                            forward_cone_deg=self.forward_cone_deg,
+                            beam_passes=beam_stats["passes"], beam_prisms=beam_stats["prisms"],
+                            beam_build_s=beam_stats["build_s"])
         return result
 
 

@@ -54,7 +54,7 @@ SURFACE_KINDS = ("flat", "patch")
 SKY_TYPES = ("black", "uniform", "cardioidal")
 CAMERA_TYPES = ("perspective", "orthographic")
 FILTER_TYPES = ("box", "gaussian")
-INTEGRATORS = ("path", "hybrid")
+INTEGRATORS = ("auto", "path", "hybrid")
 
 # Default filter width per filter type (pixels).
 _FILTER_DEFAULT_WIDTH = {"box": 1.0, "gaussian": 1.5}
@@ -506,12 +506,14 @@ class RadiometerArray(_ArrayEq):
 class Settings(_ArrayEq):
     """Rendering settings (see docs/scene-format.md for the limits)."""
 
-    integrator: str = "path"
+    integrator: str = "auto"   # "auto": hybrid when there is a sun, else path
     samples: int = 16
     radiometer_samples: int = 65536
     seed: int = 0
     max_depth: int = 256
     threads: int = 0
+    forward_cone_deg: float | str = "auto"  # half-angle kept in the beams, or "auto"
+    beam_max_level: int = 5    # adaptive subdivision levels of a water-surface triangle
 
 
 def _default_bands() -> list[Band]:
@@ -890,6 +892,9 @@ def _validate_settings(s: Settings) -> None:
     _check_int("settings", "seed", s.seed, 0, 2**63 - 1)
     _check_int("settings", "max_depth", s.max_depth, 1, 100_000)
     _check_int("settings", "threads", s.threads, 0, 1024)
+    _check_int("settings", "beam_max_level", s.beam_max_level, 0, 10)
+    if s.forward_cone_deg != "auto":
+        _check_real("settings", "forward_cone_deg", s.forward_cone_deg, 0.0, 30.0)
 
 
 # ----------------------------------------------------------------------------------------
@@ -1224,7 +1229,7 @@ def _build_scene(d: dict, base_dir: Path) -> Scene:
         sun = Sun(float(s["zenith_deg"]), float(s["azimuth_deg"]),
                   _per_band("sun", "irradiance", s["irradiance"], nb),
                   float(s.get("angular_diameter_deg", 0.53)))
-    settings = Settings(**{k: (v if k == "integrator" else int(v))
+    settings = Settings(**{k: (v if k in ("integrator", "forward_cone_deg") else int(v))
                            for k, v in d.get("settings", {}).items()})
     return Scene(
         name=d.get("name", "scene"), bands=bands, materials=materials, meshes=meshes,
@@ -1318,7 +1323,9 @@ def _scene_to_dict(s: Scene) -> dict:
         "settings": {"integrator": s.settings.integrator, "samples": int(s.settings.samples),
                      "radiometer_samples": int(s.settings.radiometer_samples),
                      "seed": int(s.settings.seed), "max_depth": int(s.settings.max_depth),
-                     "threads": int(s.settings.threads)},
+                     "threads": int(s.settings.threads),
+                     "forward_cone_deg": s.settings.forward_cone_deg,
+                     "beam_max_level": int(s.settings.beam_max_level)},
     }
 
 

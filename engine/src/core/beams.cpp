@@ -1,0 +1,415 @@
+// Beams: the refracted direct sun below the water surface.
+//
+// Below a flat ocean the refracted sun is one analytic beam. Below any triangulated water
+// surface (an ocean's height-field patch, the sun-facing faces of a closed water mesh) every
+// lit triangle sends a prism of light: its three vertex rays are the refracted sun directions
+// at the vertices, traced to the first surface they meet. Where the three rays disagree (an
+// object edge, a shadow), the triangle is subdivided. The irradiance inside a prism at path
+// length l is Phi exp(-c_beam l) / A(l), A the cross-section, so focusing waves give caustics.
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <thread>
+#include "optics.h"
+#include "parallel.h"
+#include "scene.h"
+
+namespace photic {
+
+namespace {
+
+struct VertexRay {
+    Vec3 p, n, d;        // surface point, surface normal (air side), refracted direction
+    double len = 0.0;    // to the first surface met in the water (or the attenuation cap)
+    int id = -1;         // what it hit (-1 nothing)
+    bool lit = false;    // the sun reaches p and refracts into the water
+};
+
+struct SourceTri {
+    Vec3 p[3], n[3];     // corners and their shading normals (air side)
+    Vec3 nf;             // face normal (air side)
+    int water;
+    bool periodic;
+};
+
+}  // namespace
+
+void Scene::set_forward_cone(double half_angle) {
+    cone_half_angle = std::max(0.0, half_angle);
+    double xc = 1.0 - std::cos(cone_half_angle);
+    for (auto& w : waters) {
+        w.b_path = Spectrum();
+        w.majorant = 0.0;
+        for (auto& c : w.components) {
+            c.f = cone_half_angle > 0.0 ? phases[c.phase].cdf(xc) : 0.0;
+            for (int k = 0; k < nbands; ++k) {
+                c.b_path.v[k] = c.b.v[k] * (1.0 - c.f);
+                w.b_path.v[k] += c.b_path.v[k];
+            }
+        }
+        w.c_path_mean = 0.0;
+        w.a_min = w.a.v[0];
+        for (int k = 0; k < nbands; ++k) {
+            w.majorant = std::max(w.majorant, w.b_path.v[k]);
+            w.c_beam.v[k] = w.a.v[k] + w.b_path.v[k];
+            w.c_path.v[k] = w.c_beam.v[k];
+            w.c_path_mean += w.c_path.v[k] / nbands;
+            w.a_min = std::min(w.a_min, w.a.v[k]);
+        }
+    }
+}
+
+double Scene::beam_total_flux() const {
+    double s = 0.0;
+    for (const auto& p : prisms) s += p.phi.v[0];
+    return s;
+}
+
+void Scene::build_beams(const Vec3& sun_direction, int threads) {
+    prisms.clear();
+    flat_beam = false;
+    grid_ = BeamGrid();
+    if (!has_sun) return;
+    const Vec3 s = normalize(sun_direction);
+    beam_sun_dir = s;
+    {   // refracted sun below a level surface, for sampling along segments
+        double n = waters.empty() ? 1.34 : waters[ocean_water >= 0 ? ocean_water : 0].ior;
+        double sin_t = std::sqrt(std::max(0.0, 1.0 - s.z * s.z)) / n;
+        beam_mu_w = std::max(0.05, std::sqrt(std::max(0.0, 1.0 - sin_t * sin_t)));
+    }
+    const double alpha = std::acos(std::clamp(sun_cos_half, -1.0, 1.0));
+    // Irradiance normal to the sun per band (uniform disk): L pi sin^2(alpha).
+    Spectrum e_sun;
+    for (int k = 0; k < nbands; ++k) e_sun.v[k] = sun_radiance.v[k] * kPi * std::sin(alpha) * std::sin(alpha);
+
+    if (ocean_water >= 0 && ocean_flat && s.z > 0.0) {
+        const Water& w = waters[ocean_water];
+        Vec3 d;
+        if (refract(-s, Vec3(0, 0, 1), 1.0, w.ior, &d)) {
+            double T = 1.0 - fresnel_unpolarized(s.z, 1.0, w.ior);
+            flat_beam = true;
+            flat_d = d;
+            for (int k = 0; k < nbands; ++k) flat_e0.v[k] = e_sun.v[k] * s.z * T / (-d.z);
+        }
+    }
+
+    // Source triangles: the ocean patch (shared vertex normals, seams averaged across the
+    // period) and the sun-facing faces of closed water meshes (face normals).
+    std::vector<SourceTri> src;
+    if (ocean_water >= 0 && !ocean_flat) {
+        size_t nv = patch_vertices.size() / 3, nt = patch_triangles.size() / 3;
+        auto V = [&](size_t i) { return Vec3(patch_vertices[3 * i], patch_vertices[3 * i + 1], patch_vertices[3 * i + 2]); };
+        std::vector<Vec3> vn(nv);
+        // Vertices that are the same point of the periodic surface share one normal.
+        std::map<std::pair<long, long>, std::vector<size_t>> same;
+        double qx = patch_lx * 1e-7, qy = patch_ly * 1e-7;
+        for (size_t i = 0; i < nv; ++i) {
+            Vec3 p = V(i);
+            double fx = std::fmod(p.x - patch_x0, patch_lx); if (fx < 0) fx += patch_lx;
+            double fy = std::fmod(p.y - patch_y0, patch_ly); if (fy < 0) fy += patch_ly;
+            long kx = std::lround(fx / qx), ky = std::lround(fy / qy);
+            if (kx >= std::lround(patch_lx / qx)) kx = 0;
+            if (ky >= std::lround(patch_ly / qy)) ky = 0;
+            same[{kx, ky}].push_back(i);
+        }
+        for (size_t t = 0; t < nt; ++t) {
+            const uint32_t* tri = &patch_triangles[3 * t];
+            Vec3 c = cross(V(tri[1]) - V(tri[0]), V(tri[2]) - V(tri[0]));  // area weighted
+            if (c.z < 0) c = -c;
+            for (int j = 0; j < 3; ++j) vn[tri[j]] += c;
+        }
+        for (auto& [key, ids] : same) {
+            Vec3 sum;
+            for (size_t i : ids) sum += vn[i];
+            for (size_t i : ids) vn[i] = normalize(sum);
+        }
+        for (size_t t = 0; t < nt; ++t) {
+            const uint32_t* tri = &patch_triangles[3 * t];
+            SourceTri st;
+            for (int j = 0; j < 3; ++j) { st.p[j] = V(tri[j]); st.n[j] = vn[tri[j]]; }
+            st.nf = normalize(cross(st.p[1] - st.p[0], st.p[2] - st.p[0]));
+            if (st.nf.z < 0) { std::swap(st.p[1], st.p[2]); std::swap(st.n[1], st.n[2]); st.nf = -st.nf; }
+            st.water = ocean_water;
+            st.periodic = true;
+            if (dot(st.nf, s) > 0.0) src.push_back(st);
+        }
+    }
+    for (const auto& m : meshes) {
+        if (m.kind != SurfaceKind::kWaterBoundary) continue;
+        size_t nt = m.triangles.size() / 3;
+        auto V = [&](uint32_t i) { return Vec3(m.vertices[3 * i], m.vertices[3 * i + 1], m.vertices[3 * i + 2]); };
+        for (size_t t = 0; t < nt; ++t) {
+            const uint32_t* tri = &m.triangles[3 * t];
+            SourceTri st;
+            for (int j = 0; j < 3; ++j) st.p[j] = V(tri[j]);
+            st.nf = normalize(cross(st.p[1] - st.p[0], st.p[2] - st.p[0]));
+            for (int j = 0; j < 3; ++j) st.n[j] = st.nf;
+            st.water = m.index;
+            st.periodic = false;
+            if (dot(st.nf, s) > 0.0) src.push_back(st);
+        }
+    }
+    if (src.empty()) return;
+
+    // Bounding boxes of opaque objects: prisms that overlap one test visibility per query.
+    std::vector<std::pair<Vec3, Vec3>> object_boxes;
+    for (const auto& m : meshes) {
+        if (m.kind != SurfaceKind::kOpaque) continue;
+        Vec3 lo(kInf, kInf, kInf), hi(-kInf, -kInf, -kInf);
+        for (size_t i = 0; i + 2 < m.vertices.size(); i += 3) {
+            lo = Vec3(std::min(lo.x, double(m.vertices[i])), std::min(lo.y, double(m.vertices[i + 1])), std::min(lo.z, double(m.vertices[i + 2])));
+            hi = Vec3(std::max(hi.x, double(m.vertices[i])), std::max(hi.y, double(m.vertices[i + 1])), std::max(hi.z, double(m.vertices[i + 2])));
+        }
+        object_boxes.push_back({lo, hi});
+    }
+
+    auto trace_vertex = [&](const Vec3& p, const Vec3& n, int wi) {
+        VertexRay r;
+        r.p = p;
+        r.n = n;
+        const Water& w = waters[wi];
+        double cmin = kInf;
+        for (int k = 0; k < nbands; ++k) cmin = std::min(cmin, w.c_beam.v[k]);
+        double cap = std::min(cmin > 0 ? 30.0 / cmin : kInf, 100.0 * extent_);
+        double off = offset_for(p);
+        double cs = dot(n, s);
+        if (cs > 0.0 && refract(-s, n, 1.0, w.ior, &r.d)) {
+            r.lit = !occluded(p + n * off, s);
+        } else {
+            r.d = -n;  // unlit grazing vertex: a placeholder direction into the water
+        }
+        Hit h = intersect(p - n * off, r.d, cap);
+        r.len = h.valid ? h.t + off : cap;
+        r.id = h.valid ? h.id : -1;
+        return r;
+    };
+
+    // Per source triangle, adaptive subdivision into prisms (in parallel, merged in order).
+    std::vector<std::vector<BeamPrism>> out(src.size());
+    parallel_for(src.size(), threads, [&](size_t ti, int) {
+        const SourceTri& st = src[ti];
+        const Water& w = waters[st.water];
+        struct Item { Vec3 p[3], n[3]; int level; };
+        std::vector<Item> stack{{{st.p[0], st.p[1], st.p[2]}, {st.n[0], st.n[1], st.n[2]}, 0}};
+        while (!stack.empty()) {
+            Item it = stack.back();
+            stack.pop_back();
+            VertexRay r[3];
+            for (int j = 0; j < 3; ++j) r[j] = trace_vertex(it.p[j], it.n[j], st.water);
+            int lit = int(r[0].lit) + int(r[1].lit) + int(r[2].lit);
+            if (lit == 0) continue;
+            bool uniform = lit == 3 && r[0].id == r[1].id && r[1].id == r[2].id;
+            if (!uniform && it.level < beam_max_level) {
+                Vec3 mp[3], mn[3];  // midpoints of edges 01, 12, 20
+                for (int j = 0; j < 3; ++j) {
+                    int k = (j + 1) % 3;
+                    mp[j] = (it.p[j] + it.p[k]) * 0.5;
+                    mn[j] = normalize(it.n[j] + it.n[k]);
+                }
+                int L = it.level + 1;
+                stack.push_back({{it.p[0], mp[0], mp[2]}, {it.n[0], mn[0], mn[2]}, L});
+                stack.push_back({{mp[0], it.p[1], mp[1]}, {mn[0], it.n[1], mn[1]}, L});
+                stack.push_back({{mp[2], mp[1], it.p[2]}, {mn[2], mn[1], it.n[2]}, L});
+                stack.push_back({{mp[0], mp[1], mp[2]}, {mn[0], mn[1], mn[2]}, L});
+                continue;
+            }
+            BeamPrism P;
+            double cs = dot(st.nf, s);
+            double area = 0.5 * length(cross(it.p[1] - it.p[0], it.p[2] - it.p[0]));
+            double T = 1.0 - fresnel_unpolarized(cs, 1.0, w.ior);
+            for (int k = 0; k < nbands; ++k) P.phi.v[k] = e_sun.v[k] * cs * area * T;
+            bool down = true;
+            for (int j = 0; j < 3; ++j) {
+                P.v[j] = it.p[j];
+                P.d[j] = r[j].d;
+                P.len[j] = r[j].len;
+                down = down && -r[j].d.z > 0.1;
+            }
+            // Horizontal slices when the beam goes down (flux through horizontal planes is then
+            // exact per prism); slices normal to the mean direction for grazing beams.
+            P.m = down ? Vec3(0, 0, -1) : normalize(r[0].d + r[1].d + r[2].d);
+            bool ok = true;
+            for (int j = 0; j < 3; ++j) {
+                P.md[j] = dot(P.m, P.d[j]);
+                P.mv[j] = dot(P.m, P.v[j]);
+                ok = ok && P.md[j] > 1e-6;
+            }
+            if (!ok) continue;  // vertex rays diverging by > 90 deg: no consistent slicing
+            P.n_src = st.nf;
+            P.water = st.water;
+            P.check_visibility = !uniform;
+            P.lo = Vec3(kInf, kInf, kInf);
+            P.hi = Vec3(-kInf, -kInf, -kInf);
+            for (int j = 0; j < 3; ++j)
+                for (const Vec3& q : {P.v[j], P.v[j] + P.d[j] * P.len[j]}) {
+                    P.lo = Vec3(std::min(P.lo.x, q.x), std::min(P.lo.y, q.y), std::min(P.lo.z, q.z));
+                    P.hi = Vec3(std::max(P.hi.x, q.x), std::max(P.hi.y, q.y), std::max(P.hi.z, q.z));
+                }
+            for (const auto& [lo, hi] : object_boxes) {
+                bool overlap = lo.x <= P.hi.x && hi.x >= P.lo.x && lo.y <= P.hi.y && hi.y >= P.lo.y &&
+                               lo.z <= P.hi.z && hi.z >= P.lo.z;
+                if (overlap && !st.periodic) P.check_visibility = true;
+                // Periodic prisms are shifted at query time: always test visibility there.
+                if (st.periodic) P.check_visibility = true;
+            }
+            out[ti].push_back(P);
+        }
+    });
+    for (auto& v : out)
+        for (auto& p : v) prisms.push_back(p);
+    // Periodic prisms come first in `src`, so their count marks the split.
+    build_grid();
+}
+
+void Scene::build_grid() {
+    grid_ = BeamGrid();
+    if (prisms.empty()) return;
+    Vec3 lo(kInf, kInf, kInf), hi(-kInf, -kInf, -kInf);
+    std::vector<double> widths;
+    for (const auto& p : prisms) {
+        lo = Vec3(std::min(lo.x, p.lo.x), std::min(lo.y, p.lo.y), std::min(lo.z, p.lo.z));
+        hi = Vec3(std::max(hi.x, p.hi.x), std::max(hi.y, p.hi.y), std::max(hi.z, p.hi.z));
+        widths.push_back(std::sqrt(std::max(1e-30, 0.5 * length(cross(p.v[1] - p.v[0], p.v[2] - p.v[0])))));
+    }
+    std::nth_element(widths.begin(), widths.begin() + widths.size() / 2, widths.end());
+    double cell = std::max(2.0 * widths[widths.size() / 2], 1e-6);
+    Vec3 ext = hi - lo;
+    auto cells = [&](double c) {
+        return (std::floor(ext.x / c) + 1) * (std::floor(ext.y / c) + 1) * (std::floor(ext.z / c) + 1);
+    };
+    while (cells(cell) > double(1 << 21)) cell *= 1.25;
+    grid_.lo = lo;
+    grid_.cell = Vec3(cell, cell, cell);
+    grid_.nx = int(std::floor(ext.x / cell)) + 1;
+    grid_.ny = int(std::floor(ext.y / cell)) + 1;
+    grid_.nz = int(std::floor(ext.z / cell)) + 1;
+    size_t ncell = size_t(grid_.nx) * grid_.ny * grid_.nz;
+    // Each prism is cut into pieces along its slicing axis; each piece's box marks its cells.
+    std::vector<std::vector<uint32_t>> lists(ncell);
+    std::vector<int64_t> last(ncell, -1);
+    for (size_t pi = 0; pi < prisms.size(); ++pi) {
+        const BeamPrism& P = prisms[pi];
+        double h0 = kInf, h1 = -kInf;
+        for (int j = 0; j < 3; ++j) {
+            h0 = std::min(h0, P.mv[j]);
+            h1 = std::max(h1, P.mv[j] + P.md[j] * P.len[j]);
+        }
+        int pieces = std::max(1, std::min(100000, int(std::ceil((h1 - h0) / cell))));
+        for (int k = 0; k < pieces; ++k) {
+            double ha = h0 + (h1 - h0) * k / pieces, hb = h0 + (h1 - h0) * (k + 1) / pieces;
+            Vec3 blo(kInf, kInf, kInf), bhi(-kInf, -kInf, -kInf);
+            for (int j = 0; j < 3; ++j)
+                for (double h : {ha, hb}) {
+                    double t = std::clamp((h - P.mv[j]) / P.md[j], 0.0, P.len[j]);
+                    Vec3 q = P.v[j] + P.d[j] * t;
+                    blo = Vec3(std::min(blo.x, q.x), std::min(blo.y, q.y), std::min(blo.z, q.z));
+                    bhi = Vec3(std::max(bhi.x, q.x), std::max(bhi.y, q.y), std::max(bhi.z, q.z));
+                }
+            // The slices between ha and hb can bulge out of the box of their end slices only
+            // through the lateral faces, which are ruled surfaces between those points: the box
+            // of the six points contains them.
+            int x0 = std::clamp(int((blo.x - lo.x) / cell), 0, grid_.nx - 1), x1 = std::clamp(int((bhi.x - lo.x) / cell), 0, grid_.nx - 1);
+            int y0 = std::clamp(int((blo.y - lo.y) / cell), 0, grid_.ny - 1), y1 = std::clamp(int((bhi.y - lo.y) / cell), 0, grid_.ny - 1);
+            int z0 = std::clamp(int((blo.z - lo.z) / cell), 0, grid_.nz - 1), z1 = std::clamp(int((bhi.z - lo.z) / cell), 0, grid_.nz - 1);
+            for (int z = z0; z <= z1; ++z)
+                for (int y = y0; y <= y1; ++y)
+                    for (int x = x0; x <= x1; ++x) {
+                        size_t c = (size_t(z) * grid_.ny + y) * grid_.nx + x;
+                        if (last[c] == int64_t(pi)) continue;
+                        last[c] = int64_t(pi);
+                        lists[c].push_back(uint32_t(pi));
+                    }
+        }
+    }
+    grid_.start.assign(ncell + 1, 0);
+    for (size_t c = 0; c < ncell; ++c) grid_.start[c + 1] = grid_.start[c] + uint32_t(lists[c].size());
+    grid_.items.reserve(grid_.start.back());
+    for (auto& l : lists) grid_.items.insert(grid_.items.end(), l.begin(), l.end());
+}
+
+bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, BeamSample* out) const {
+    double h = dot(P.m, y);
+    double t[3];
+    Vec3 p[3];
+    for (int j = 0; j < 3; ++j) {
+        t[j] = (h - P.mv[j]) / P.md[j];
+        p[j] = P.v[j] + P.d[j] * t[j];
+    }
+    double S = 0.5 * dot(cross(p[1] - p[0], p[2] - p[0]), P.m);
+    if (S == 0.0) return false;
+    double l0 = 0.5 * dot(cross(p[1] - y, p[2] - y), P.m) / S;
+    double l1 = 0.5 * dot(cross(p[2] - y, p[0] - y), P.m) / S;
+    double l2 = 1.0 - l0 - l1;
+    const double tol = -1e-12;
+    if (l0 < tol || l1 < tol || l2 < tol) return false;
+    double l = l0 * t[0] + l1 * t[1] + l2 * t[2];
+    double lend = l0 * P.len[0] + l1 * P.len[1] + l2 * P.len[2];
+    if (l < 0.0 || l > lend) return false;
+    if (dot(y - P.v[0], P.n_src) > 0.0) return false;  // above the source surface (in air)
+    Vec3 d = normalize(P.d[0] * l0 + P.d[1] * l1 + P.d[2] * l2);
+    double md = dot(P.m, d);
+    if (!(md > 0.0)) return false;
+    // Lower bound of the cross-section: the sun's image (angular radius alpha_w in water)
+    // blurs every point of the surface into a disk of radius alpha_w l, so no real beam is
+    // narrower than that; a tiny floor keeps degenerate slices finite.
+    const Water& w = waters[P.water];
+    double alpha_w = std::asin(std::min(1.0, std::sin(std::acos(std::clamp(sun_cos_half, -1.0, 1.0))) / w.ior));
+    double src_area = 0.5 * length(cross(P.v[1] - P.v[0], P.v[2] - P.v[0]));
+    double a_eff = std::max({std::fabs(S), kPi * (alpha_w * l) * (alpha_w * l), beam_min_area_fraction * src_area});
+    if (P.check_visibility) {
+        double off = offset_for(world);
+        if (occluded_segment(world, -d, std::max(0.0, l - 2.0 * off))) return false;
+        Vec3 q = world - d * l + P.n_src * off;
+        if (occluded(q, beam_sun_dir)) return false;
+    }
+    out->d = d;
+    for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * std::exp(-w.c_beam.v[k] * l) / (a_eff * md);
+    return true;
+}
+
+int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max) const {
+    int n = 0;
+    if (medium < 0 || max <= 0) return 0;
+    if (flat_beam && medium == ocean_water && x.z < ocean_z && (!has_bottom || x.z > bottom_z)) {
+        const Water& w = waters[medium];
+        double l = (ocean_z - x.z) / (-flat_d.z);
+        bool visible = true;
+        if (!meshes.empty()) {
+            double off = offset_for(x);
+            visible = !occluded_segment(x, -flat_d, std::max(0.0, l - 2.0 * off));
+            if (visible) visible = !occluded(x - flat_d * l + Vec3(0, 0, off), beam_sun_dir);
+        }
+        if (visible) {
+            out[n].d = flat_d;
+            for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0.v[k] * std::exp(-w.c_beam.v[k] * l);
+            ++n;
+        }
+    }
+    if (grid_.nx == 0) return n;
+    bool periodic = ocean_water >= 0 && !ocean_flat && medium == ocean_water;
+    long i0 = 0, i1 = 0, j0 = 0, j1 = 0;
+    Vec3 ghi = grid_.lo + Vec3(grid_.nx * grid_.cell.x, grid_.ny * grid_.cell.y, grid_.nz * grid_.cell.z);
+    if (periodic) {
+        i0 = long(std::ceil((x.x - ghi.x) / patch_lx)); i1 = long(std::floor((x.x - grid_.lo.x) / patch_lx));
+        j0 = long(std::ceil((x.y - ghi.y) / patch_ly)); j1 = long(std::floor((x.y - grid_.lo.y) / patch_ly));
+    }
+    for (long i = i0; i <= i1; ++i)
+        for (long j = j0; j <= j1; ++j) {
+            Vec3 y = x - Vec3(double(i) * patch_lx, double(j) * patch_ly, 0.0);
+            int cx = int(std::floor((y.x - grid_.lo.x) / grid_.cell.x));
+            int cy = int(std::floor((y.y - grid_.lo.y) / grid_.cell.y));
+            int cz = int(std::floor((y.z - grid_.lo.z) / grid_.cell.z));
+            if (cx < 0 || cy < 0 || cz < 0 || cx >= grid_.nx || cy >= grid_.ny || cz >= grid_.nz) continue;
+            size_t c = (size_t(cz) * grid_.ny + cy) * grid_.nx + cx;
+            for (uint32_t k = grid_.start[c]; k < grid_.start[c + 1]; ++k) {
+                const BeamPrism& P = prisms[grid_.items[k]];
+                if (P.water != medium) continue;
+                if ((i != 0 || j != 0) && !(periodic && P.water == ocean_water)) continue;
+                if (n >= max) return n;
+                if (prism_eval(P, y, x, &out[n])) ++n;
+            }
+        }
+    return n;
+}
+
+}  // namespace photic
