@@ -425,7 +425,7 @@ BAD_INPUTS = [
                  id="sun-irradiance-negative"),
     pytest.param(_set("sun.angular_diameter_deg", 0.0), "sun", "angular_diameter_deg",
                  id="sun-diameter-zero"),
-    pytest.param(_set("sun.angular_diameter_deg", 6.0), "sun", "angular_diameter_deg",
+    pytest.param(_set("sun.angular_diameter_deg", 25.0), "sun", "angular_diameter_deg",
                  id="sun-diameter-too-large"),
     pytest.param(_set("water.1.triangles", BOX_TRIANGLES[:-1]), "water 'tank'", "triangles",
                  id="water-mesh-open"),

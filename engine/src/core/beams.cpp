@@ -80,7 +80,9 @@ void Scene::build_beams(const Vec3& sun_direction, int threads) {
     const double alpha = std::acos(std::clamp(sun_cos_half, -1.0, 1.0));
     // Irradiance normal to the sun per band (uniform disk): L pi sin^2(alpha).
     Spectrum e_sun;
-    for (int k = 0; k < nbands; ++k) e_sun.v[k] = sun_radiance.v[k] * kPi * std::sin(alpha) * std::sin(alpha);
+    // Each direction of the disk carries L dw, so a beam built for one direction drawn
+    // uniformly in the disk carries L times the disk's solid angle (normal to itself).
+    for (int k = 0; k < nbands; ++k) e_sun.v[k] = sun_radiance.v[k] * 2.0 * kPi * (1.0 - std::cos(alpha));
 
     if (ocean_water >= 0 && ocean_flat && s.z > 0.0) {
         const Water& w = waters[ocean_water];

@@ -115,12 +115,18 @@ def resolve_forward_cone(scene: Scene) -> float:
     return AUTO_CONE_DEG if optical_depth_scale(scene) > AUTO_CONE_TAU else 0.0
 
 
-def sun_direction_in_disk(scene: Scene, rng: np.random.Generator) -> np.ndarray:
-    """A direction drawn uniformly (in solid angle) within the sun's disk."""
+GOLDEN_ANGLE = np.pi * (3.0 - np.sqrt(5.0))
+
+
+def sun_direction_in_disk(scene: Scene, i: int, n: int, rng: np.random.Generator) -> np.ndarray:
+    """Direction ``i`` of ``n`` stratified over the sun's disk (equal solid angles, a
+    Fibonacci spiral randomly rotated and jittered by ``rng``): the beams of n passes together
+    sample the whole disk evenly, so soft caustic edges converge with the passes."""
     s = np.asarray(scene.sun.direction, float)
     alpha = np.radians(scene.sun.angular_diameter_deg) / 2
-    cos_t = 1.0 - rng.random() * (1.0 - np.cos(alpha))
-    phi = 2 * np.pi * rng.random()
+    u0, phi0 = rng.random(), 2 * np.pi * rng.random()
+    cos_t = 1.0 - ((i % n) + u0) / n * (1.0 - np.cos(alpha))
+    phi = phi0 + GOLDEN_ANGLE * i
     a = np.array([1.0, 0.0, 0.0]) if abs(s[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     u = np.cross(s, a); u /= np.linalg.norm(u)
     v = np.cross(s, u)
@@ -202,8 +208,14 @@ class Renderer:
         cam_done = {c.name: 0 for c in scene.cameras}
         rad_sums, rad_done = [], [0] * len(radiometers)
         cam_passes = self._camera_passes()
-        rad_passes = [(s, min(RADIOMETER_PASS, self.radiometer_samples - s))
-                      for s in range(0, self.radiometer_samples, RADIOMETER_PASS)]
+        # The hybrid integrator draws a sun direction per pass: at least 64 passes (of 4,096 to
+        # 65,536 samples) so the disk is sampled evenly and its spread stays well inside the
+        # reported standard error.
+        size = RADIOMETER_PASS
+        if hybrid:
+            size = int(np.clip(-(-self.radiometer_samples // 64) // 1024 * 1024, 4096, RADIOMETER_PASS))
+        rad_passes = [(s, min(size, self.radiometer_samples - s))
+                      for s in range(0, self.radiometer_samples, size)]
         total_work = len(groups) * (sum(c.resolution[0] * c.resolution[1] * self.samples for c in scene.cameras)
                                     + len(radiometers) * self.radiometer_samples)
         done_work = 0
@@ -216,14 +228,14 @@ class Renderer:
             for k in counters:
                 counters[k] += int(c[k])
 
-        def new_pass(core, gi, key):
-            """Before every pass of the hybrid integrator: beams for a sun direction drawn in
-            the disk (deterministic per seed, band group and pass)."""
+        def new_pass(core, gi, key, i, n):
+            """Before every pass of the hybrid integrator: beams for direction i of n drawn in
+            the sun's disk (deterministic per seed, band group and sensor)."""
             if not hybrid:
                 return
             rng = np.random.default_rng([self.seed, gi, *key])
             tb = time.perf_counter()
-            core.build_beams(tuple(sun_direction_in_disk(scene, rng)), self.threads)
+            core.build_beams(tuple(sun_direction_in_disk(scene, i, n, rng)), self.threads)
             beam_stats["build_s"] += time.perf_counter() - tb
             beam_stats["passes"] += 1
             beam_stats["prisms"] = max(beam_stats["prisms"], core.beam_count)
@@ -242,8 +254,8 @@ class Renderer:
                     nbins = core.radiometer_bins(ri)
                     rad_sums.append([np.zeros((nbins, nc, nb)), np.zeros((nbins, nc, nb))])
             for ci, cam in enumerate(scene.cameras):
-                for start, n in cam_passes:
-                    new_pass(core, gi, (0, ci, start))
+                for pi, (start, n) in enumerate(cam_passes):
+                    new_pass(core, gi, (0, ci), pi, len(cam_passes))
                     s, s2, c = core.render_camera(ci, start, n, self.threads)
                     if core.cancelled:
                         cancelled = True
@@ -261,8 +273,8 @@ class Renderer:
             for ri, r in enumerate(radiometers):
                 if cancelled:
                     break
-                for start, n in rad_passes:
-                    new_pass(core, gi, (1, ri, start))
+                for pi, (start, n) in enumerate(rad_passes):
+                    new_pass(core, gi, (1, ri), pi, len(rad_passes))
                     s, s2, c = core.render_radiometer(ri, start, n, self.threads)
                     if core.cancelled:
                         cancelled = True

@@ -824,7 +824,7 @@ def _validate_sun(sun: Sun, nbands: int) -> None:
     _check_real("sun", "zenith_deg", sun.zenith_deg, 0, 90, hi_open=True)
     _check_real("sun", "azimuth_deg", sun.azimuth_deg)
     _check_per_band("sun", "irradiance", sun.irradiance, nbands)
-    _check_real("sun", "angular_diameter_deg", sun.angular_diameter_deg, 0, 5, lo_open=True)
+    _check_real("sun", "angular_diameter_deg", sun.angular_diameter_deg, 0, 20, lo_open=True)
 
 
 def _validate_sky(sky: Any, nbands: int) -> None:
