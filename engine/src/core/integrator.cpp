@@ -18,8 +18,6 @@ namespace photic {
 
 namespace {
 
-constexpr int kMaxBeams = 64;  // beams summed at one point (overlaps in strong caustics)
-
 Vec3 cosine_hemisphere(const Vec3& n, double u1, double u2) {
     // 1 - cos(theta) = 1 - sqrt(1 - u1)
     double mu = std::sqrt(1.0 - u1);
@@ -34,8 +32,87 @@ double max_component(const Spectrum& s, int nb) {
 
 }  // namespace
 
+void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int medium, Rng& rng,
+                               Spectrum* out) const {
+    // Single scattering of the beams along the water segment [0, T] from o along d, as seen
+    // from o: int exp(-c t) sum_beams b p(psi) E dt, estimated with one distance drawn with
+    // pdf proportional to exp(-k t), where k follows the integrand: attenuation back to o (c)
+    // and the beams growing towards the surface (c_beam per metre of beam path, which changes
+    // by -d_z / mu_w per metre along the segment).
+    const Water& w = waters[medium];
+    *out = Spectrum();
+    if (!(w.c_path_mean > 0.0) || !(T > 0.0)) return;
+    double k = w.c_path_mean * (1.0 - d.z / beam_mu_w);
+    bool finite = T < kInf;
+    if (!finite && k < 0.5 * w.c_path_mean) k = 0.5 * w.c_path_mean;
+    double u = rng.uniform();
+    double t, pdf;
+    if (finite && std::fabs(k) * T < 1e-6) {
+        t = u * T;
+        pdf = 1.0 / T;
+    } else {
+        double ak = std::fabs(k);
+        double norm = finite ? -std::expm1(-ak * T) : 1.0;
+        double s_ = -std::log1p(-u * norm) / ak;  // from the start (k > 0) or from the end
+        t = k > 0 ? s_ : T - s_;
+        pdf = ak * std::exp(-ak * s_) / norm;
+    }
+    BeamSample beams[kMaxBeams];
+    int n = beams_at(o + d * t, medium, beams, kMaxBeams);
+    const double cone_x = 1.0 - std::cos(cone_half_angle);
+    for (int j = 0; j < n; ++j) {
+        double xs = std::max(0.0, 1.0 + dot(beams[j].d, d));  // 1 - cos(psi)
+        if (xs < cone_x) continue;  // inside the cone the light stays in the beam
+        double pv[16];
+        for (size_t ci = 0; ci < w.components.size(); ++ci) pv[ci] = phases[w.components[ci].phase].eval(xs);
+        for (int kb = 0; kb < nbands; ++kb) {
+            double bp = 0.0;
+            for (size_t ci = 0; ci < w.components.size(); ++ci) bp += w.components[ci].b.v[kb] * pv[ci];
+            out->v[kb] += std::exp(-w.c_path.v[kb] * t) * bp * beams[j].e.v[kb] / pdf;
+        }
+    }
+}
+
+bool Scene::strongest_beam(const Vec3& x, int medium, Vec3* d) const {
+    BeamSample beams[kMaxBeams];
+    int n = beams_at(x, medium, beams, kMaxBeams);
+    double best = 0.0;
+    for (int j = 0; j < n; ++j)
+        if (beams[j].e.v[0] > best) { best = beams[j].e.v[0]; *d = beams[j].d; }
+    return best > 0.0;
+}
+
+double Scene::beam_direction_pdf(const Water& w, const Vec3& beam_d, const Vec3& omega) const {
+    // Looking along omega at light of a beam along beam_d: scattering angle cos = -beam_d . omega.
+    double x = std::max(0.0, 1.0 + dot(beam_d, omega));
+    double p = 0.0, bsum = 0.0;
+    for (const auto& c : w.components) {
+        double b = 0.0;
+        for (int k = 0; k < nbands; ++k) b += c.b.v[k];
+        p += b * phases[c.phase].eval(x);
+        bsum += b;
+    }
+    return bsum > 0.0 ? p / bsum : 0.0;
+}
+
+Vec3 Scene::sample_beam_direction(const Water& w, const Vec3& beam_d, Rng& rng) const {
+    double bsum = 0.0;
+    for (const auto& c : w.components)
+        for (int k = 0; k < nbands; ++k) bsum += c.b.v[k];
+    double u = rng.uniform() * bsum;
+    size_t pick = 0;
+    for (; pick + 1 < w.components.size(); ++pick) {
+        double b = 0.0;
+        for (int k = 0; k < nbands; ++k) b += w.components[pick].b.v[k];
+        if (u < b) break;
+        u -= b;
+    }
+    double u1 = rng.uniform(), u2 = rng.uniform();
+    return phases[w.components[pick].phase].sample_direction(-beam_d, u1, u2);
+}
+
 Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
-                        Counters& c) const {
+                        Counters& c, double first_beam_weight) const {
     const int nb = nbands;
     Components out;
     Spectrum beta = Spectrum::constant(1.0);
@@ -52,6 +129,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
     };
     const double cone_x = 1.0 - std::cos(cone_half_angle);
     BeamSample beams[kMaxBeams];
+    double bv_weight = first_beam_weight;  // MIS weight of this segment's beam scattering
 
     for (;;) {
         Hit h;
@@ -74,42 +152,13 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             c.segments++;
             t_hit = h.valid ? h.t : kInf;
 
-            if (hybrid && w.c_path_mean > 0.0 && t_hit > 0.0 && (!prisms.empty() || flat_beam)) {
-                // Single scattering of the beams along the whole segment [0, t_hit]: one
-                // distance drawn with pdf proportional to exp(-k t) on the segment, where k
-                // follows the integrand: attenuation back to the segment's start (c) and the
-                // beams growing towards the surface (c_beam per metre of beam path, which
-                // changes by -d_z / mu_w per metre along the segment).
-                double k = w.c_path_mean * (1.0 - d.z / beam_mu_w);
-                bool finite = t_hit < kInf;
-                if (!finite && k < 0.5 * w.c_path_mean) k = 0.5 * w.c_path_mean;
-                double u = rng.uniform();
-                double t, pdf;
-                if (finite && std::fabs(k) * t_hit < 1e-6) {
-                    t = u * t_hit;
-                    pdf = 1.0 / t_hit;
-                } else {
-                    double ak = std::fabs(k);
-                    double norm = finite ? -std::expm1(-ak * t_hit) : 1.0;
-                    double s_ = -std::log1p(-u * norm) / ak;  // from the start (k > 0) or the end
-                    t = k > 0 ? s_ : t_hit - s_;
-                    pdf = ak * std::exp(-ak * s_) / norm;
-                }
-                Vec3 x = o + d * t;
-                int n = beams_at(x, medium, beams, kMaxBeams);
-                for (int j = 0; j < n; ++j) {
-                    double xs = std::max(0.0, 1.0 + dot(beams[j].d, d));  // 1 - cos(psi)
-                    if (xs < cone_x) continue;  // inside the cone the light stays in the beam
-                    double pv[16];
-                    for (size_t ci = 0; ci < w.components.size(); ++ci) pv[ci] = phases[w.components[ci].phase].eval(xs);
-                    for (int kb = 0; kb < nb; ++kb) {
-                        double bp = 0.0;
-                        for (size_t ci = 0; ci < w.components.size(); ++ci) bp += w.components[ci].b.v[kb] * pv[ci];
-                        double att = std::exp(-w.a.v[kb] * pending - w.c_path.v[kb] * t);
-                        out.beam_volume.v[kb] += beta.v[kb] * att * bp * beams[j].e.v[kb] / pdf;
-                    }
-                }
+            if (hybrid && has_beams()) {
+                Spectrum I;
+                beam_scatter_along(o, d, t_hit, medium, rng, &I);
+                for (int kb = 0; kb < nb; ++kb)
+                    out.beam_volume.v[kb] += bv_weight * beta.v[kb] * std::exp(-w.a.v[kb] * pending) * I.v[kb];
             }
+            bv_weight = 1.0;
 
             while (t_cur + dt < t_hit) {
                 t_cur += dt;
@@ -145,14 +194,13 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 // sample it (outside the forward cone), and weight each band by its own
                 // phase function over the mixture pdf.
                 size_t nc = w.components.size();
-                Vec3 nd;
+                double q[16];
+                double qsum = 1.0;
                 if (nc == 1) {
-                    const ScatterComponent& sc = w.components[0];
-                    double u1 = sc.f + rng.uniform() * (1.0 - sc.f), u2 = rng.uniform();
-                    nd = phases[sc.phase].sample_direction(d, u1, u2);
+                    q[0] = 1.0;
                 } else {
-                    double q[16];
-                    double qsum = 0.0, wsum = 0.0;
+                    double wsum = 0.0;
+                    qsum = 0.0;
                     for (int k = 0; k < nb; ++k) wsum += beta.v[k];
                     for (size_t ci = 0; ci < nc; ++ci) {
                         double sacc = 0.0;
@@ -162,25 +210,60 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                         qsum += q[ci];
                     }
                     if (!(qsum > 0.0)) return out;
-                    double u = rng.uniform() * qsum;
-                    size_t pick = 0;
-                    while (pick + 1 < nc && u >= q[pick]) { u -= q[pick]; ++pick; }
-                    const ScatterComponent& sc = w.components[pick];
-                    double u1 = sc.f + rng.uniform() * (1.0 - sc.f), u2 = rng.uniform();
-                    nd = phases[sc.phase].sample_direction(d, u1, u2);
-                    double x = std::max(0.0, 1.0 - dot(d, nd));
-                    double pv[16];  // truncated, renormalised phase functions
-                    double pdf = 0.0;
+                }
+                // Truncated (outside the cone), renormalised component phase functions at a
+                // direction, the sampling pdf (mixture by q) and each band's own mixture.
+                double pv[16];
+                auto eval_components = [&](const Vec3& wdir) {
+                    double x = std::max(0.0, 1.0 - dot(d, wdir));
                     for (size_t ci = 0; ci < nc; ++ci) {
                         const ScatterComponent& cc = w.components[ci];
                         pv[ci] = (x >= cone_x && cc.f < 1.0) ? phases[cc.phase].eval(x) / (1.0 - cc.f) : 0.0;
-                        pdf += (q[ci] / qsum) * pv[ci];
                     }
-                    for (int k = 0; k < nb; ++k) {
-                        if (!(w.b_path.v[k] > 0)) continue;
-                        double pk = 0.0;
-                        for (size_t ci = 0; ci < nc; ++ci) pk += w.components[ci].b_path.v[k] * pv[ci];
-                        beta.v[k] *= pdf > 0 ? (pk / w.b_path.v[k]) / pdf : 0.0;
+                };
+                auto pdf_a = [&]() {
+                    double pdf = 0.0;
+                    for (size_t ci = 0; ci < nc; ++ci) pdf += (q[ci] / qsum) * pv[ci];
+                    return pdf;
+                };
+                auto band_phase = [&](int k) {
+                    if (!(w.b_path.v[k] > 0)) return 0.0;
+                    double pk = 0.0;
+                    for (size_t ci = 0; ci < nc; ++ci) pk += w.components[ci].b_path.v[k] * pv[ci];
+                    return pk / w.b_path.v[k];
+                };
+                double u = rng.uniform() * qsum;
+                size_t pick = 0;
+                while (pick + 1 < nc && u >= q[pick]) { u -= q[pick]; ++pick; }
+                const ScatterComponent& sc = w.components[pick];
+                double u1 = sc.f + rng.uniform() * (1.0 - sc.f), u2 = rng.uniform();
+                Vec3 nd = phases[sc.phase].sample_direction(d, u1, u2);
+                Spectrum beta_pre = beta;
+                double pa = 0.0;
+                if (nc > 1 || (hybrid && has_beams())) {
+                    eval_components(nd);
+                    pa = pdf_a();
+                }
+                if (nc > 1)
+                    for (int k = 0; k < nb; ++k) beta.v[k] *= pa > 0 ? band_phase(k) / pa : 0.0;
+                Vec3 bd;
+                if (hybrid && has_beams() && strongest_beam(o, medium, &bd)) {
+                    // Beam-scattering MIS: the next segment's beam term (directions from the
+                    // phase function here) is weighted against a second direction drawn from
+                    // the phase function around the beam (the forward peak at the next point).
+                    double pb = beam_direction_pdf(w, bd, nd);
+                    bv_weight = pa / (pa + pb);
+                    Vec3 wb = sample_beam_direction(w, bd, rng);
+                    eval_components(wb);
+                    double pa_b = pdf_a(), pb_b = beam_direction_pdf(w, bd, wb);
+                    if (pa_b > 0.0) {
+                        Hit hb = intersect(o, wb);
+                        c.segments++;
+                        Spectrum I;
+                        beam_scatter_along(o, wb, hb.valid ? hb.t : kInf, medium, rng, &I);
+                        for (int k = 0; k < nb; ++k)
+                            out.beam_volume.v[k] += beta_pre.v[k] * band_phase(k) * std::exp(-w.a.v[k] * pending) *
+                                                    I.v[k] / (pa_b + pb_b);
                     }
                 }
                 d = nd;
@@ -245,7 +328,26 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             sun_covered = nee;
             beam_covered = hybrid && medium >= 0;
             double u1 = rng.uniform(), u2 = rng.uniform();
-            d = cosine_hemisphere(n, u1, u2);
+            Vec3 nd = cosine_hemisphere(n, u1, u2);
+            Vec3 bd;
+            if (hybrid && medium >= 0 && has_beams() && strongest_beam(xo, medium, &bd)) {
+                // Beam-scattering MIS as at scattering vertices, with the cosine lobe here.
+                const Water& w = waters[medium];
+                double pa = std::max(0.0, dot(n, nd)) * kInvPi, pb = beam_direction_pdf(w, bd, nd);
+                bv_weight = pa / (pa + pb);
+                Vec3 wb = sample_beam_direction(w, bd, rng);
+                double cb = dot(n, wb);
+                if (cb > 0.0) {
+                    double pa_b = cb * kInvPi, pb_b = beam_direction_pdf(w, bd, wb);
+                    Hit hb = intersect(xo, wb);
+                    c.segments++;
+                    Spectrum I;
+                    beam_scatter_along(xo, wb, hb.valid ? hb.t : kInf, medium, rng, &I);
+                    for (int k = 0; k < nb; ++k)
+                        out.beam_volume.v[k] += beta.v[k] * m.reflectance.v[k] * cb * kInvPi * I.v[k] / (pa_b + pb_b);
+                }
+            }
+            d = nd;
             for (int k = 0; k < nb; ++k) beta.v[k] *= m.reflectance.v[k];
             o = xo;
         } else {
@@ -355,6 +457,7 @@ void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
 void Scene::radiometer_sample(int ri, uint64_t index, Spectrum* out, int* bin, Counters& c) const {
     const Radiometer& r = radiometers[ri];
     Rng rng(seed, 0x7000000000000000ull + uint64_t(ri), index);
+    for (int ci = 0; ci < kNumComponents; ++ci) out[ci] = Spectrum();
     double u1 = rng.uniform(), u2 = rng.uniform();
     Vec3 w;            // look direction: light arrives travelling along -w
     double weight;     // response / pdf
@@ -404,13 +507,31 @@ void Scene::radiometer_sample(int ri, uint64_t index, Spectrum* out, int* bin, C
             break;
         }
     }
-    for (int ci = 0; ci < kNumComponents; ++ci) out[ci] = Spectrum();
     bool sensor_nee = has_sun && r.medium < 0;
     bool sensor_beams = hybrid && r.medium >= 0;
-    Components L = trace(r.position, w, r.medium, sensor_nee, sensor_beams, rng, c);
+    double first_weight = 1.0;
+    Vec3 bd;
+    if (sensor_beams && strongest_beam(r.position, r.medium, &bd)) {
+        // Beam-scattering MIS for the first segment: the sensor's own directions against
+        // directions drawn from the phase function around the beam (looking towards the sun).
+        const Water& wat = waters[r.medium];
+        double pa = response(w) / weight, pb = beam_direction_pdf(wat, bd, w);
+        first_weight = pa / (pa + pb);
+        Vec3 wb = sample_beam_direction(wat, bd, rng);
+        double resp = response(wb);
+        if (resp > 0.0) {
+            double pa_b = resp / weight, pb_b = beam_direction_pdf(wat, bd, wb);
+            Hit hb = intersect(r.position, wb);
+            c.segments++;
+            Spectrum I;
+            beam_scatter_along(r.position, wb, hb.valid ? hb.t : kInf, r.medium, rng, &I);
+            for (int k = 0; k < nbands; ++k) out[2].v[k] += resp * I.v[k] / (pa_b + pb_b);
+        }
+    }
+    Components L = trace(r.position, w, r.medium, sensor_nee, sensor_beams, rng, c, first_weight);
     for (int k = 0; k < nbands; ++k) {
         out[1].v[k] = L.beam_surface.v[k] * weight;
-        out[2].v[k] = L.beam_volume.v[k] * weight;
+        out[2].v[k] += L.beam_volume.v[k] * weight;
         out[3].v[k] = L.path.v[k] * weight;
     }
     if (sensor_nee) {

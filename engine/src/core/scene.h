@@ -14,6 +14,7 @@ namespace photic {
 
 constexpr int kMaxBands = 16;  // bands per render pass; larger band lists are split in groups
 constexpr int kNumComponents = 5;  // total, beam_surface, beam_volume, path, beam_direct
+constexpr int kMaxBeams = 64;      // beams summed at one point (overlaps in strong caustics)
 
 struct Spectrum {
     std::array<double, kMaxBands> v{};
@@ -196,8 +197,18 @@ public:
     // the hybrid integrator's components (all in `path` for pure path tracing).
     // sun_covered: NEE already counted the sun seen straight from o; beam_covered: the beams
     // already count the refracted sun reaching o straight (hybrid).
+    // first_beam_weight: MIS weight of the first segment's beam scattering (radiometers).
     Components trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
-                     Counters& c) const;
+                     Counters& c, double first_beam_weight = 1.0) const;
+    bool has_beams() const { return flat_beam || !prisms.empty(); }
+    // Beam single scattering seen from o along d over [0, T] in water `medium` (per band,
+    // without the throughput), one distance sample.
+    void beam_scatter_along(const Vec3& o, const Vec3& d, double T, int medium, Rng& rng, Spectrum* out) const;
+    bool strongest_beam(const Vec3& x, int medium, Vec3* d) const;
+    // The second strategy of the beam-scattering MIS: look directions drawn from the water's
+    // phase function around the beam's reverse direction (the forward peak of natural waters).
+    double beam_direction_pdf(const Water& w, const Vec3& beam_d, const Vec3& omega) const;
+    Vec3 sample_beam_direction(const Water& w, const Vec3& beam_d, Rng& rng) const;
     bool occluded_segment(const Vec3& o, const Vec3& d, double tmax) const;
 
     // --- sensors ----------------------------------------------------------------
