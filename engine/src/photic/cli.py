@@ -83,6 +83,30 @@ def cmd_bench(args) -> int:
     return 0
 
 
+def cmd_problems(args) -> int:
+    from .problems import CONFIGS, format_records, reference_table, run_problem
+    from .scene import load_scene
+
+    refs = reference_table()
+    folder = Path(args.scenes)
+    records = []
+    for problem, omega0 in CONFIGS:
+        if args.problem and problem not in args.problem:
+            continue
+        path = folder / f"mobley1993_problem{problem}_omega{omega0:g}.json"
+        scene = load_scene(path)
+        cone = None if args.forward_cone is None else (args.forward_cone if args.forward_cone == "auto" else float(args.forward_cone))
+        records += run_problem(scene, problem, omega0, refs, samples=args.samples, threads=args.threads,
+                               forward_cone_deg=cone)
+        if not args.json:
+            print(f"problem {problem}, omega0 {omega0:g}: done in {records[-1]['seconds']:.1f} s", file=sys.stderr)
+    if args.json:
+        print(json.dumps(records, indent=1))
+    else:
+        print(format_records(records))
+    return 0 if all(r["passed"] for r in records) else 1
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="photic",
@@ -105,6 +129,21 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--threads", type=int, default=None, help="threads, 0 = all cores (default: the scene's)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=cmd_render)
+    pr = sub.add_parser("problems", help="canonical problems 1 and 2 of Mobley et al. 1993",
+                        description="Runs canonical problems 1 and 2 of Mobley et al. (1993) from the "
+                                    "scene files in examples/problems and compares Ed, Eou and Lu at "
+                                    "optical depths 1, 5, 10 with the published model mean and CV: "
+                                    "ours +- standard error, reference, CV, time, and pass/fail "
+                                    "(|ours - ref| <= (2 CV + 0.005) ref + 3 SE). Exit status 1 if any fails.")
+    pr.add_argument("--scenes", default=str(Path(__file__).resolve().parents[3] / "examples" / "problems"),
+                    help="folder with the problems' scene files (default: the repository's examples/problems)")
+    pr.add_argument("--problem", type=int, nargs="+", choices=[1, 2], help="only these problems")
+    pr.add_argument("--samples", type=int, default=None, help="samples per radiometer (default: the files')")
+    pr.add_argument("--threads", type=int, default=None, help="threads, 0 = all cores")
+    pr.add_argument("--forward-cone", default=None, help="forward cone half-angle in degrees, or auto")
+    pr.add_argument("--json", action="store_true",
+                    help="print records (problem, omega0, tau, quantity, value, stderr, reference, cv, seconds, passed)")
+    pr.set_defaults(func=cmd_problems)
     b = sub.add_parser("bench", help="throughput benchmark against raw Embree ray casting",
                        description="Measures the engine's path segments per second on two scenes "
                                    "(a 300k-triangle mesh in water; a flat ocean with a few objects) "
