@@ -22,6 +22,7 @@ struct VertexRay {
     Vec3 p, n, d;        // surface point, surface normal (air side), refracted direction
     double len = 0.0;    // to the first surface met in the water (or the attenuation cap)
     int id = -1;         // what it hit (-1 nothing)
+    Vec3 hn;             // the normal of the surface it hit
     bool lit = false;    // the sun reaches p and refracts into the water
 };
 
@@ -183,6 +184,7 @@ void Scene::build_beams(const Vec3& sun_direction, int threads) {
         Hit h = intersect(p - n * off, r.d, cap);
         r.len = h.valid ? h.t + off : cap;
         r.id = h.valid ? h.id : -1;
+        r.hn = h.valid ? h.n : Vec3();
         return r;
     };
 
@@ -200,7 +202,10 @@ void Scene::build_beams(const Vec3& sun_direction, int threads) {
             for (int j = 0; j < 3; ++j) r[j] = trace_vertex(it.p[j], it.n[j], st.water);
             int lit = int(r[0].lit) + int(r[1].lit) + int(r[2].lit);
             if (lit == 0) continue;
-            bool uniform = lit == 3 && r[0].id == r[1].id && r[1].id == r[2].id;
+            // One prism is right only if its three rays end on one plane of one object; else
+            // the end face (interpolated between the rays' ends) would cut across an edge.
+            bool uniform = lit == 3 && r[0].id == r[1].id && r[1].id == r[2].id &&
+                           dot(r[0].hn, r[1].hn) > 0.999 && dot(r[1].hn, r[2].hn) > 0.999;
             if (!uniform && it.level < beam_max_level) {
                 Vec3 mp[3], mn[3];  // midpoints of edges 01, 12, 20
                 for (int j = 0; j < 3; ++j) {
