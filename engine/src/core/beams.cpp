@@ -205,7 +205,8 @@ void Scene::build_beams(const Vec3& sun_direction, int threads) {
             // One prism is right only if its three rays end on one plane of one object; else
             // the end face (interpolated between the rays' ends) would cut across an edge.
             bool uniform = lit == 3 && r[0].id == r[1].id && r[1].id == r[2].id &&
-                           dot(r[0].hn, r[1].hn) > 0.999 && dot(r[1].hn, r[2].hn) > 0.999;
+                           (r[0].id == -1 ||  // all three end in open water (attenuation cap)
+                            (dot(r[0].hn, r[1].hn) > 0.999 && dot(r[1].hn, r[2].hn) > 0.999));
             if (!uniform && it.level < beam_max_level) {
                 Vec3 mp[3], mn[3];  // midpoints of edges 01, 12, 20
                 for (int j = 0; j < 3; ++j) {
@@ -279,8 +280,11 @@ void Scene::build_grid() {
         widths.push_back(std::sqrt(std::max(1e-30, 0.5 * length(cross(p.v[1] - p.v[0], p.v[2] - p.v[0])))));
     }
     std::nth_element(widths.begin(), widths.begin() + widths.size() / 2, widths.end());
-    double cell = std::max(2.0 * widths[widths.size() / 2], 1e-6);
     Vec3 ext = hi - lo;
+    // Cells about twice a typical prism's width, but not so small that the grid has more
+    // than ~32 cells per prism (long, tilted prisms of grazing suns would fill it otherwise).
+    double volume = std::max(1e-30, ext.x * ext.y * ext.z);
+    double cell = std::max({2.0 * widths[widths.size() / 2], std::cbrt(volume / (32.0 * prisms.size())), 1e-6});
     auto cells = [&](double c) {
         return (std::floor(ext.x / c) + 1) * (std::floor(ext.y / c) + 1) * (std::floor(ext.z / c) + 1);
     };
@@ -356,13 +360,15 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
     Vec3 d = normalize(P.d[0] * l0 + P.d[1] * l1 + P.d[2] * l2);
     double md = dot(P.m, d);
     if (!(md > 0.0)) return false;
-    // Lower bound of the cross-section: the sun's image (angular radius alpha_w in water)
-    // blurs every point of the surface into a disk of radius alpha_w l, so no real beam is
-    // narrower than that; a tiny floor keeps degenerate slices finite.
+    // Lower bound of the cross-section, so that foci stay finite. The sun's finite size is
+    // what bounds real foci; it is represented by drawing a direction in the disk for every
+    // pass, and the average over passes blurs each focus over the sun's image. Within one pass
+    // the cross-section is only kept above a tiny fraction of the source cell's area
+    // (beam_min_area_fraction, 1e-6): irradiance at most 1e6 times the cell's, and the flux
+    // lost in slices thinner than that is negligible (flux conservation is tested to 1e-5).
     const Water& w = waters[P.water];
-    double alpha_w = std::asin(std::min(1.0, std::sin(std::acos(std::clamp(sun_cos_half, -1.0, 1.0))) / w.ior));
     double src_area = 0.5 * length(cross(P.v[1] - P.v[0], P.v[2] - P.v[0]));
-    double a_eff = std::max({std::fabs(S), kPi * (alpha_w * l) * (alpha_w * l), beam_min_area_fraction * src_area});
+    double a_eff = std::max(std::fabs(S), beam_min_area_fraction * src_area);
     if (P.check_visibility) {
         double off = offset_for(world);
         if (occluded_segment(world, -d, std::max(0.0, l - 2.0 * off))) return false;

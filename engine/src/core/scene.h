@@ -164,7 +164,7 @@ public:
     bool hybrid = false;
     double cone_half_angle = 0.0;     // forward-scattering cone (radians); 0: full phase function
     int beam_max_level = 5;           // adaptive subdivision levels of a surface triangle
-    double beam_min_area_fraction = 1e-9;  // floor of a cross-section, times the source area
+    double beam_min_area_fraction = 1e-6;  // floor of a cross-section, times the source area
     // Beams of the current pass (rebuilt for every sun direction drawn in the disk).
     std::vector<BeamPrism> prisms;
     bool flat_beam = false;           // analytic beam below a flat ocean

@@ -11,6 +11,11 @@ ocean with a bottom and a few small objects. For each scene and thread count, in
   same rays.
 
 Measurements are interleaved and repeated (3 times, once in quick mode); medians are reported.
+
+``photic bench --error`` (:func:`run_error_bench`) measures speed against error instead: pure
+path tracing and the hybrid integrator (forward cone 0 and "auto") at doubling budgets on
+canonical problem 2 (omega0 = 0.9) and on the stepped pool's underwater camera, against a
+reference rendered with hybrid cone 0 at a large budget; time to 5 % error and a log-log plot.
 """
 from __future__ import annotations
 
@@ -20,6 +25,7 @@ import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -369,4 +375,244 @@ def run_bench(quick: bool = False, threads=(1, 2), seconds: float = 2.0,
         records += _bench_scene(make(quick), threads, seconds, repeats, nrays, gil_free)
     if print_table:
         print(format_table(records))
+    return records
+
+
+# ----------------------------------------------------------------------------------------
+# ``photic bench --error``: speed against error
+# ----------------------------------------------------------------------------------------
+
+ERROR_TARGET = 0.05
+# (label, integrator, forward_cone_deg)
+ERROR_METHODS = (("path", "path", 0.0), ("hybrid cone 0", "hybrid", 0.0), ("hybrid auto", "hybrid", "auto"))
+METHOD_COLORS = {"path": (215, 50, 40), "hybrid cone 0": (40, 90, 215), "hybrid auto": (30, 150, 60)}
+DEFAULT_ERROR_PLOT = Path(__file__).resolve().parents[3] / "docs" / "images" / "bench_error.png"
+
+
+@dataclass
+class ErrorCase:
+    """One scene of the error benchmark.
+
+    ``make(integrator, cone)`` builds the scene; ``kind`` is "radiometers" (budgets are
+    samples per radiometer) or "image" (samples per pixel of the one camera); ``budgets`` maps
+    a method label to its doubling budgets; the reference is hybrid cone 0 at ``ref_budget``.
+    """
+
+    name: str
+    title: str
+    kind: str
+    make: object
+    budgets: dict
+    ref_budget: int
+    unit: str
+
+
+def _doubling(first: int, count: int) -> list[int]:
+    return [first << i for i in range(count)]
+
+
+def _problem_case(quick: bool) -> ErrorCase:
+    from .problems import problem_scene
+
+    def make(integrator, cone):
+        d = problem_scene(2, 0.9)
+        d["settings"]["integrator"] = integrator
+        d["settings"]["forward_cone_deg"] = cone
+        return Scene.from_dict(d)
+
+    if quick:
+        budgets = {"path": _doubling(4096, 2), "hybrid cone 0": _doubling(1024, 2),
+                   "hybrid auto": _doubling(1024, 2)}
+        ref = 1 << 14
+    else:
+        # Path samples are ~5x cheaper: larger budgets so every method spans similar times.
+        budgets = {"path": _doubling(1 << 16, 5), "hybrid cone 0": _doubling(1 << 13, 6),
+                   "hybrid auto": _doubling(1 << 12, 6)}
+        ref = 1 << 19
+    return ErrorCase("problem2_omega0.9", "PROBLEM 2, W0 = 0.9 (9 RADIOMETERS)", "radiometers",
+                     make, budgets, ref, "samples")
+
+
+def _pool_case(quick: bool) -> ErrorCase:
+    from .scenes import stepped_pool
+
+    res = (16, 12) if quick else (32, 24)
+
+    def make(integrator, cone):
+        s = stepped_pool(resolution=res, integrator=integrator)
+        s.cameras = [c for c in s.cameras if c.name == "under"]
+        s.settings.forward_cone_deg = cone
+        s.validate()
+        return s
+
+    if quick:
+        budgets = {"path": _doubling(8, 2), "hybrid cone 0": _doubling(1, 2), "hybrid auto": _doubling(1, 2)}
+        ref = 16
+    else:
+        budgets = {"path": _doubling(64, 6), "hybrid cone 0": _doubling(16, 6),
+                   "hybrid auto": _doubling(16, 6)}
+        ref = 512
+    return ErrorCase(f"stepped_pool_under_{res[0]}x{res[1]}",
+                     f"STEPPED POOL, UNDER CAMERA {res[0]}X{res[1]}", "image", make, budgets, ref, "spp")
+
+
+def _render_estimate(case: ErrorCase, scene: Scene, budget: int, seed: int, threads: int):
+    """(seconds, values, variances): radiometer means or the image, and their variances."""
+    from .render import render
+
+    if case.kind == "radiometers":
+        res = render(scene, radiometer_samples=budget, seed=seed, threads=threads)
+        values = np.array([r.mean[0, 0] for r in res.radiometers])
+        var = np.array([r.stderr[0, 0] ** 2 for r in res.radiometers])
+    else:
+        res = render(scene, samples=budget, seed=seed, threads=threads)
+        img = next(iter(res.images.values()))
+        values, var = img.mean, img.variance
+    return float(res.stats["time_s"]), values, var, res.stats
+
+
+def _relative_errors(case: ErrorCase, values, ref, ref_var) -> tuple[float, float, float]:
+    """(error, raw error, reference noise), all relative.
+
+    Radiometers: RMS over radiometers of (x - ref) / ref. Image: sqrt(mean((x - ref)^2)) /
+    mean(ref). The reference's own Monte Carlo variance is removed: for independent renders
+    E|x - ref|^2 = E|x - truth|^2 + Var(ref), so error^2 = raw^2 - noise^2 (floored at 0).
+    """
+    if case.kind == "radiometers":
+        raw2 = float(np.mean(((values - ref) / ref) ** 2))
+        noise2 = float(np.mean(ref_var / ref ** 2))
+    else:
+        m = float(np.mean(ref))
+        raw2 = float(np.mean((values - ref) ** 2)) / m ** 2
+        noise2 = float(np.mean(ref_var)) / m ** 2
+    return math.sqrt(max(raw2 - noise2, 0.0)), math.sqrt(raw2), math.sqrt(noise2)
+
+
+def time_to_error(records: list[dict], target: float = ERROR_TARGET) -> dict:
+    """When one method's error first reaches ``target``: interpolated in log-log between the
+    budgets around the crossing. Returns {"seconds": float or None, "text": str, "bound": bool
+    (the first budget was already below: seconds is an upper bound), "extrapolated": float or
+    None (not reached: the time if the error fell as t^-1/2 from its last value, optimistic)}."""
+    rs = sorted(records, key=lambda r: r["budget"])
+    if not rs:
+        return {"seconds": None, "text": "no data", "bound": False, "extrapolated": None}
+    if rs[0]["rel_error"] <= target:
+        return {"seconds": rs[0]["seconds"], "text": f"<= {rs[0]['seconds']:.3g} s (first budget)",
+                "bound": True, "extrapolated": None}
+    for a, b in zip(rs, rs[1:]):
+        if a["rel_error"] > target >= b["rel_error"]:
+            la, lb = math.log(a["rel_error"]), math.log(max(b["rel_error"], 1e-12))
+            f = (math.log(target) - la) / (lb - la)
+            t = math.exp(math.log(a["seconds"]) + f * (math.log(b["seconds"]) - math.log(a["seconds"])))
+            return {"seconds": t, "text": f"{t:.3g} s", "bound": False, "extrapolated": None}
+    last = rs[-1]
+    ext = last["seconds"] * (last["rel_error"] / target) ** 2
+    return {"seconds": None, "bound": False, "extrapolated": ext,
+            "text": f"not reached ({100 * last['rel_error']:.3g} % after {last['seconds']:.3g} s)"}
+
+
+def format_error_table(records: list[dict], refs: dict) -> str:
+    lines = []
+    for scene in dict.fromkeys(r["scene"] for r in records):
+        ref = refs[scene]
+        lines.append(f"scene {scene}: reference = hybrid cone 0 at {ref['budget']} {ref['unit']} "
+                     f"(seed {ref['seed']}, {ref['seconds']:.1f} s), its own RMS relative noise "
+                     f"{100 * ref['noise']:.2f} % (removed from the errors: error^2 = raw^2 - noise^2)")
+        head = f"  {'method':<26} {'budget':>9} {'seconds':>9} {'rel. error':>10} {'raw':>8}"
+        lines += [head, "  " + "-" * (len(head) - 2)]
+        for r in (r for r in records if r["scene"] == scene):
+            label = r["method"] + (f" ({r['forward_cone_deg']:g} deg)" if r["method"] == "hybrid auto" else "")
+            lines.append(f"  {label:<26} {r['budget']:>9} {r['seconds']:>9.3f} "
+                         f"{100 * r['rel_error']:>9.2f}% {100 * r['rel_error_raw']:>7.2f}%"
+                         + ("  (= cone 0 settings: measured once)" if r.get("shared") else ""))
+        lines.append(f"  time to {100 * ERROR_TARGET:g} % error:")
+        times = {}
+        for m in dict.fromkeys(r["method"] for r in records if r["scene"] == scene):
+            tt = time_to_error([r for r in records if r["scene"] == scene and r["method"] == m])
+            times[m] = tt
+            lines.append(f"    {m:<16} {tt['text']}")
+        path = times.get("path")
+        for m, tt in times.items():
+            if m == "path" or path is None or tt["seconds"] is None:
+                continue
+            if path["seconds"] is not None:
+                ratio = f"{path['seconds'] / tt['seconds']:.3g}"
+            else:
+                longest = max(r["seconds"] for r in records if r["scene"] == scene and r["method"] == "path")
+                ratio = (f"> {longest / tt['seconds']:.3g} (path not there after {longest:.3g} s; "
+                         f"~{path['extrapolated'] / tt['seconds']:.3g} if its error fell as t^-1/2 "
+                         f"from its last point, optimistic for path)")
+            lines.append(f"    path / {m}: {ratio}" + (" (hybrid time is an upper bound)" if tt["bound"] else ""))
+        lines.append("")
+    lines.append("seconds: the render's own time (compile, beams, tracing); errors of single renders "
+                 "(independent seeds) are themselves noisy by ~1/sqrt(2 x pixels or radiometers).")
+    return "\n".join(lines)
+
+
+def run_error_bench(quick: bool = False, threads: int = 2, plot: str | Path | None = DEFAULT_ERROR_PLOT,
+                    print_table: bool = True, progress=None) -> list[dict]:
+    """Speed against error: pure path tracing, hybrid with cone 0 and hybrid with 'auto', at
+    doubling budgets, on canonical problem 2 (omega0 = 0.9; the 9 radiometers) and on the
+    stepped pool seen by its underwater camera. Errors are relative to a reference rendered
+    once per scene with hybrid cone 0 at a large budget (its own variance removed).
+
+    Returns one record per (scene, method, budget): ``scene, method, budget, seconds,
+    rel_error`` and ``rel_error_raw, ref_noise, unit, integrator, forward_cone_deg``. Prints the
+    table and the time to 5 % error unless ``print_table`` is False; writes a log-log plot of
+    error against time to ``plot`` unless it is None. ``progress(message)`` is called after
+    every render.
+    """
+    from .render import resolve_forward_cone
+
+    say = progress or (lambda msg: None)
+    records, refs = [], {}
+    for ci, case in enumerate((_problem_case(quick), _pool_case(quick))):
+        ref_scene = case.make("hybrid", 0.0)
+        seed = 900_001 + ci
+        t, ref, ref_var, _ = _render_estimate(case, ref_scene, case.ref_budget, seed, threads)
+        _, _, noise = _relative_errors(case, ref, ref, ref_var)
+        refs[case.name] = {"budget": case.ref_budget, "unit": case.unit, "seconds": t, "seed": seed,
+                           "noise": noise, "title": case.title}
+        say(f"{case.name}: reference {case.ref_budget} {case.unit} in {t:.1f} s, noise {100 * noise:.2f} %")
+        done = {}  # (integrator, resolved cone) -> records, so identical settings run once
+        for mi, (label, integrator, cone) in enumerate(ERROR_METHODS):
+            scene = case.make(integrator, cone)
+            resolved = resolve_forward_cone(scene) if integrator == "hybrid" else 0.0
+            key = (integrator, resolved, tuple(case.budgets[label]))
+            if key in done:
+                for r in done[key]:
+                    records.append(dict(r, method=label, shared=True))
+                continue
+            mine = []
+            for bi, budget in enumerate(case.budgets[label]):
+                t, values, _, stats = _render_estimate(case, scene, budget, 1000 * (ci + 1) + 100 * mi + bi, threads)
+                err, raw, _ = _relative_errors(case, values, ref, ref_var)
+                rec = {"scene": case.name, "method": label, "budget": int(budget), "seconds": t,
+                       "rel_error": err, "rel_error_raw": raw, "ref_noise": noise, "unit": case.unit,
+                       "integrator": stats["integrator"], "forward_cone_deg": float(stats["forward_cone_deg"])}
+                mine.append(rec)
+                say(f"{case.name}: {label} {budget} {case.unit}: {t:.2f} s, error {100 * err:.2f} %")
+            done[key] = mine
+            records += mine
+    if print_table:
+        print(format_error_table(records, refs))
+    if plot:
+        from .png import loglog_panels, write_png
+        panels = []
+        cases = list(dict.fromkeys(r["scene"] for r in records))
+        for k, scene in enumerate(cases):
+            series = []
+            for m in dict.fromkeys(r["method"] for r in records if r["scene"] == scene):
+                rs = sorted((r for r in records if r["scene"] == scene and r["method"] == m),
+                            key=lambda r: r["budget"])
+                series.append((m, [r["seconds"] for r in rs], [max(r["rel_error"], 1e-4) for r in rs],
+                               METHOD_COLORS.get(m, (0, 0, 0))))
+            panels.append({"title": refs[scene]["title"],
+                           "xlabel": "TIME (S)", "ylabel": "REL. ERROR", "percent": True, "legend": k == 0,
+                           "series": series,
+                           "hlines": [(ERROR_TARGET, (110, 110, 110), "5%"),
+                                      (refs[scene]["noise"], (170, 170, 170), "REF NOISE")]})
+        write_png(plot, loglog_panels(panels))
+        if print_table:
+            print(f"plot: {plot}")
     return records

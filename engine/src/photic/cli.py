@@ -28,6 +28,33 @@ def radiometer_table(result) -> str:
     return "\n".join(lines)
 
 
+def _write_beam_mesh(scene, path, threads) -> int:
+    """--beam-mesh: build the beams once for the sun's central direction and write their
+    footprints. Returns an exit status (1 with a message when there is nothing to write)."""
+    from .compile import band_groups, compile_scene
+    from .footprints import beam_cap_lengths, write_footprints
+
+    group = band_groups(len(scene.bands))[0]
+    core = compile_scene(scene, group, hybrid=True, forward_cone_deg=0)
+    core.build_beams(tuple(float(c) for c in scene.sun.direction), int(threads or 0))
+    if core.beam_count == 0:
+        why = ("the flat ocean surface refracts the sun as one analytic beam, which has no prisms"
+               if core.has_flat_beam else "no triangulated water surface is lit by the sun")
+        print(f"photic: --beam-mesh: scene {scene.name} has no beams ({why}); nothing written",
+              file=sys.stderr)
+        return 1
+    try:
+        out = write_footprints(path, core, beam_cap_lengths(scene, group, forward_cone_deg=0))
+    except (OSError, ValueError) as e:
+        print(f"photic: --beam-mesh: cannot write {path}: {e}", file=sys.stderr)
+        return 1
+    note = ("; face properties phi = flux entering the water per prism, before attenuation, "
+            "area = footprint area in m^2" if out.suffix.lower() == ".ply" else "")
+    print(f"beam footprints: {out} ({core.beam_count} prisms, flux entering the water "
+          f"{core.beam_total_flux():.6g} in band {scene.bands[0].name}{note})")
+    return 0
+
+
 def cmd_render(args) -> int:
     from .output import write_outputs
     from .render import Renderer
@@ -42,6 +69,9 @@ def cmd_render(args) -> int:
         return 2
     except (OSError, ValueError) as e:
         print(f"photic: cannot load {args.scene}: {e}", file=sys.stderr)
+        return 2
+    if args.beam_mesh is not None and scene.sun is None:
+        print(f"photic: --beam-mesh: scene {scene.name} has no sun, so no beams", file=sys.stderr)
         return 2
 
     # Ctrl-C cancels cleanly: completed passes are still written.
@@ -63,7 +93,10 @@ def cmd_render(args) -> int:
         bar.close()
     written = write_outputs(args.out, result)
     st = result.stats
-    print(f"scene {scene.name}: {st['paths']} paths, {st['segments']} segments in {st['time_s']:.2f} s "
+    integ = st.get("integrator", "path")
+    if integ == "hybrid":
+        integ += f", forward cone {st.get('forward_cone_deg', 0.0):g} deg"
+    print(f"scene {scene.name}: {integ}; {st['paths']} paths, {st['segments']} segments in {st['time_s']:.2f} s "
           f"({st['segments_per_s'] / 1e6:.2f} M segments/s, {st['threads']} threads, seed {st['seed']})"
           + ("  [CANCELLED: partial result]" if result.cancelled else ""))
     if result.radiometers:
@@ -72,10 +105,22 @@ def cmd_render(args) -> int:
         print(f"image: {p}")
     for p in written["tables"]:
         print(f"radiometer table: {p}")
-    return 130 if result.cancelled else 0
+    status = 130 if result.cancelled else 0
+    if args.beam_mesh is not None and not result.cancelled:
+        status = _write_beam_mesh(scene, args.beam_mesh, renderer.threads) or status
+    return status
 
 
 def cmd_bench(args) -> int:
+    if args.error:
+        from .bench import run_error_bench
+        say = None if args.json else (lambda msg: print(msg, file=sys.stderr, flush=True))
+        records = run_error_bench(quick=args.quick, threads=max(args.threads),
+                                  plot=args.plot or None, print_table=not args.json, progress=say)
+        if args.json:
+            keys = ("scene", "method", "budget", "seconds", "rel_error")
+            print(json.dumps([{k: r[k] for k in keys} for r in records], indent=1))
+        return 0
     from .bench import run_bench
     records = run_bench(quick=args.quick, threads=args.threads, seconds=args.seconds, print_table=not args.json)
     if args.json:
@@ -119,6 +164,10 @@ def build_parser() -> argparse.ArgumentParser:
                                    "(radiance.<band>, variance.<band>, samples) and "
                                    "<scene>_radiometers.csv/.json for the radiometers, then "
                                    "prints a table of radiometer values with standard errors. "
+                                   "With the hybrid integrator the EXR also holds the component "
+                                   "passes beam_surface.<band>, beam_volume.<band>, path.<band> "
+                                   "and the tables value_<component>/stderr_<component> columns "
+                                   "(they sum to the total). "
                                    "Ctrl-C stops after the current pass and writes what is done.")
     r.add_argument("scene", type=Path, help="scene file (.json)")
     r.add_argument("--out", type=Path, default=Path("out"), help="output directory (default: out)")
@@ -128,6 +177,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, default=None, help="random seed (default: the scene's)")
     r.add_argument("--threads", type=int, default=None, help="threads, 0 = all cores (default: the scene's)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument("--beam-mesh", type=Path, default=None, metavar="PATH",
+                   help="after rendering, build the beams once for the sun's central direction "
+                        "and write their footprints (where each beam prism ends on the bottom or "
+                        "an object) as a triangle mesh: .ply (face properties phi = flux entering "
+                        "the water per prism, W in band 0, before attenuation; area = m^2) or "
+                        ".obj. Needs a sun and a wavy (patch) or mesh water surface")
     r.set_defaults(func=cmd_render)
     pr = sub.add_parser("problems", help="canonical problems 1 and 2 of Mobley et al. 1993",
                         description="Runs canonical problems 1 and 2 of Mobley et al. (1993) from the "
@@ -154,6 +209,15 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--quick", action="store_true", help="smaller scenes and shorter runs (for tests)")
     b.add_argument("--threads", type=int, nargs="+", default=[1, 2], help="thread counts (default: 1 2)")
     b.add_argument("--seconds", type=float, default=2.0, help="approximate seconds per measurement")
+    b.add_argument("--error", action="store_true",
+                   help="speed against error instead: path tracing, hybrid (forward cone 0) and hybrid "
+                        "(auto) at doubling budgets on canonical problem 2 (omega0 0.9, radiometers) and "
+                        "the stepped pool's underwater camera, relative error against a reference "
+                        "rendered with hybrid cone 0 at a large budget; prints a table and the time to "
+                        "5%% error, writes a log-log plot (threads: the largest of --threads)")
+    b.add_argument("--plot", default=str(Path(__file__).resolve().parents[3] / "docs" / "images" / "bench_error.png"),
+                   help="with --error: PNG plot of error against time (default: docs/images/bench_error.png; "
+                        "'' for none)")
     b.set_defaults(func=cmd_bench)
     return p
 

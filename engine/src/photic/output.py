@@ -9,7 +9,16 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .render import RenderResult
+from .render import COMPONENTS, RenderResult
+
+# What each component pass holds; the components sum to the total (radiance or value).
+COMPONENT_DESCRIPTIONS = {
+    "beam_surface": "refracted sun from beams on underwater surfaces",
+    "beam_volume": "single scattering of beams along traced water segments",
+    "path": "everything path tracing finds itself: sky, sun above water, multiple scattering of sky light",
+    "beam_direct": "refracted sun reaching the radiometer directly, from the beams in closed form",
+}
+IMAGE_COMPONENTS = COMPONENTS[:3]
 
 
 def _safe(name: str) -> str:
@@ -17,7 +26,9 @@ def _safe(name: str) -> str:
 
 
 def write_exr(path, result: RenderResult, camera: str) -> Path:
-    """One camera as a multilayer EXR: radiance.<band>, variance.<band>, samples."""
+    """One camera as a multilayer EXR: radiance.<band>, variance.<band>, samples and, when the
+    result has component passes, beam_surface.<band>, beam_volume.<band>, path.<band> (radiance
+    units; they sum to radiance.<band>)."""
     import OpenEXR  # imported late: never needed inside Blender, where Blender writes EXR
 
     img = result.images[camera]
@@ -25,6 +36,10 @@ def write_exr(path, result: RenderResult, camera: str) -> Path:
     for k, band in enumerate(result.bands):
         channels[f"radiance.{band.name}"] = np.ascontiguousarray(img.mean[..., k], dtype=np.float32)
         channels[f"variance.{band.name}"] = np.ascontiguousarray(img.variance[..., k], dtype=np.float32)
+    comps = [c for c in IMAGE_COMPONENTS if c in img.components]
+    for c in comps:
+        for k, band in enumerate(result.bands):
+            channels[f"{c}.{band.name}"] = np.ascontiguousarray(img.components[c][..., k], dtype=np.float32)
     channels["samples"] = np.full(img.mean.shape[:2], float(img.samples), dtype=np.float32)
     header = {
         "compression": OpenEXR.ZIP_COMPRESSION,
@@ -38,6 +53,14 @@ def write_exr(path, result: RenderResult, camera: str) -> Path:
                                     for b in result.bands]),
         "photic:seed": str(result.stats.get("seed", "")),
     }
+    if "integrator" in result.stats:
+        header["photic:integrator"] = str(result.stats["integrator"])
+    if "forward_cone_deg" in result.stats:
+        header["photic:forward_cone_deg"] = float(result.stats["forward_cone_deg"])
+    if comps:
+        header["photic:components"] = " + ".join(comps) + " = radiance; same units as radiance"
+        for c in comps:
+            header[f"photic:component.{c}"] = COMPONENT_DESCRIPTIONS[c]
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     with OpenEXR.File(header, channels) as f:
@@ -57,6 +80,11 @@ def radiometer_rows(result: RenderResult) -> list[dict]:
                        "medium": r.medium, "band": band.name, "center_nm": band.center_nm,
                        "bin": b, "value": float(r.mean[b, k]), "stderr": float(r.stderr[b, k]),
                        "samples": r.samples, "units": r.units}
+                for c in COMPONENTS:
+                    if c in r.components:
+                        cm, ce = r.components[c]
+                        row[f"value_{c}"] = float(cm[b, k])
+                        row[f"stderr_{c}"] = float(ce[b, k])
                 if r.bins:
                     ip, ia = divmod(b, r.bins[1])
                     row["polar_deg"] = (ip + 0.5) * 180.0 / r.bins[0]
@@ -73,10 +101,16 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
     rows = radiometer_rows(result)
     csv_path = out_dir / f"{stem}_radiometers.csv"
     fields = ["name", "quantity", "x_m", "y_m", "z_m", "medium", "band", "center_nm", "bin",
-              "polar_deg", "azimuth_deg", "value", "stderr", "samples", "units"]
+              "polar_deg", "azimuth_deg", "value", "stderr",
+              *(f"value_{c}" for c in COMPONENTS), *(f"stderr_{c}" for c in COMPONENTS),
+              "samples", "units"]
     with open(csv_path, "w", newline="") as f:
         f.write(f"# photic {__version__}; scene {result.scene_name}; seed {result.stats.get('seed')}; "
-                "value = Monte Carlo mean, stderr = its standard error\n")
+                f"integrator {result.stats.get('integrator')}; "
+                f"forward cone {result.stats.get('forward_cone_deg')} deg; "
+                "value = Monte Carlo mean, stderr = its standard error; "
+                "value = value_beam_surface + value_beam_volume + value_path + value_beam_direct (" +
+                "; ".join(f"{c}: {COMPONENT_DESCRIPTIONS[c]}" for c in COMPONENTS) + ")\n")
         w = csv.DictWriter(f, fieldnames=fields)
         w.writeheader()
         for row in rows:
@@ -88,8 +122,12 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
            "radiometers": [{"name": r.name, "quantity": r.quantity, "position_m": r.position.tolist(),
                             "medium": r.medium, "units": r.units, "samples": r.samples,
                             "bins": list(r.bins) if r.bins else None,
-                            "value": r.mean.tolist(), "stderr": r.stderr.tolist()}
-                           for r in result.radiometers]}
+                            "value": r.mean.tolist(), "stderr": r.stderr.tolist(),
+                            "components": {c: {"value": r.components[c][0].tolist(),
+                                               "stderr": r.components[c][1].tolist()}
+                                           for c in COMPONENTS if c in r.components}}
+                           for r in result.radiometers],
+           "components": {c: COMPONENT_DESCRIPTIONS[c] for c in COMPONENTS}}
     json_path.write_text(json.dumps(doc, indent=1))
     return csv_path, json_path
 

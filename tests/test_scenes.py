@@ -1,0 +1,88 @@
+"""The example scenes of photic.scenes, the PNG writer, and the error benchmark in quick mode."""
+import math
+import struct
+import zlib
+
+import numpy as np
+import trimesh
+
+from photic.png import tonemap, write_png
+from photic.render import render
+from photic.scenes import stepped_pool, water_volume
+
+
+def test_stepped_pool_validates_and_its_water_is_closed():
+    scene = stepped_pool()
+    scene.validate()
+    assert [c.name for c in scene.cameras] == ["above", "under"]
+    assert scene.sun.angular_diameter_deg == 0.53 and scene.settings.integrator == "hybrid"
+    (water,) = scene.water
+    tm = trimesh.Trimesh(water.mesh.vertices, water.mesh.triangles, process=False)
+    assert tm.is_watertight and tm.is_winding_consistent and tm.volume > 0
+    # It fills the pool (6 m x 3 m) down to the deepest floor (1.8 m): the volume of the box.
+    assert abs(tm.volume - 6.0 * 3.0 * 1.8) < 0.1
+    z = water.mesh.vertices[:, 2]
+    assert 0.02 < z.max() < 0.06 and math.isclose(z.min(), -1.801)
+    # The flat variant and a standalone volume are closed too.
+    flat = stepped_pool(waves=False).water[0].mesh
+    assert trimesh.Trimesh(flat.vertices, flat.triangles, process=False).is_watertight
+    v, t = water_volume(0, 1, 0, 2, -1, 3, 5, lambda x, y: 0.1 * np.sin(x + y))
+    tm = trimesh.Trimesh(v, t, process=False)
+    assert tm.is_watertight and tm.is_winding_consistent and tm.volume > 0
+
+
+def test_stepped_pool_tiny_hybrid_render_has_beams_on_surfaces():
+    scene = stepped_pool(resolution=(8, 6), samples=2)
+    scene.cameras = [c for c in scene.cameras if c.name == "under"]
+    result = render(scene, samples=2)
+    img = result.images["under"]
+    assert img.mean.shape == (6, 8, 3)
+    assert np.all(np.isfinite(img.mean)) and np.all(img.mean >= 0)
+    assert np.all(np.isfinite(img.variance)) and np.all(img.variance >= 0)
+    assert result.stats["integrator"] == "hybrid" and result.stats["beam_prisms"] > 0
+    assert img.components["beam_surface"].sum() > 0
+
+
+def _read_png(path):
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    pos, idat, ihdr = 8, b"", None
+    while pos < len(data):
+        (n,) = struct.unpack(">I", data[pos:pos + 4])
+        kind, body = data[pos + 4:pos + 8], data[pos + 8:pos + 8 + n]
+        (crc,) = struct.unpack(">I", data[pos + 8 + n:pos + 12 + n])
+        assert crc == zlib.crc32(kind + body) & 0xFFFFFFFF
+        if kind == b"IHDR":
+            ihdr = struct.unpack(">IIBBBBB", body)
+        elif kind == b"IDAT":
+            idat += body
+        pos += 12 + n
+    w, h = ihdr[0], ihdr[1]
+    raw = np.frombuffer(zlib.decompress(idat), np.uint8).reshape(h, 1 + 3 * w)
+    assert np.all(raw[:, 0] == 0)
+    return raw[:, 1:].reshape(h, w, 3)
+
+
+def test_png_writer_round_trip(tmp_path):
+    rng = np.random.default_rng(3)
+    img = rng.integers(0, 256, size=(7, 5, 3), dtype=np.uint8)
+    assert np.array_equal(_read_png(write_png(tmp_path / "a.png", img)), img)
+    rgb = tonemap(rng.random((4, 6, 3)))
+    assert rgb.shape == (4, 6, 3) and rgb.min() >= 0 and rgb.max() <= 1
+
+
+def test_error_bench_quick(tmp_path):
+    from photic.bench import run_error_bench, time_to_error
+
+    plot = tmp_path / "err.png"
+    records = run_error_bench(quick=True, threads=2, plot=plot, print_table=False)
+    assert {r["scene"] for r in records} == {"problem2_omega0.9", "stepped_pool_under_16x12"}
+    assert {r["method"] for r in records} == {"path", "hybrid cone 0", "hybrid auto"}
+    for r in records:
+        assert r["seconds"] > 0 and math.isfinite(r["rel_error"]) and r["rel_error"] >= 0
+    # The refracted 0.53 deg sun is out of reach of pure path tracing under the flat surface.
+    assert all(r["rel_error"] > 0.5 for r in records if r["method"] == "path" and r["scene"].startswith("problem"))
+    assert _read_png(plot).shape[2] == 3
+    fake = [{"budget": 1, "seconds": 1.0, "rel_error": 0.2}, {"budget": 2, "seconds": 4.0, "rel_error": 0.025}]
+    assert math.isclose(time_to_error(fake)["seconds"], 1.0 * 4.0 ** (math.log(4) / math.log(8)))
+    assert time_to_error(fake[:1])["seconds"] is None
