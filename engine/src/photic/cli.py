@@ -118,8 +118,7 @@ def cmd_bench(args) -> int:
         records = run_error_bench(quick=args.quick, threads=max(args.threads),
                                   plot=args.plot or None, print_table=not args.json, progress=say)
         if args.json:
-            keys = ("scene", "method", "budget", "seconds", "rel_error")
-            print(json.dumps([{k: r[k] for k in keys} for r in records], indent=1))
+            print(json.dumps(records, indent=1))
         return 0
     from .bench import run_bench
     records = run_bench(quick=args.quick, threads=args.threads, seconds=args.seconds, print_table=not args.json)
