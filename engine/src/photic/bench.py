@@ -497,26 +497,32 @@ def _resolved(err: float, noise: float) -> tuple[float, bool]:
 
 
 def time_to_error(records: list[dict], target: float = ERROR_TARGET) -> dict:
-    """When one method's error first reaches ``target``: interpolated in log-log between the
-    budgets around the crossing. Returns {"seconds": float or None, "text": str, "bound": bool
-    (the first budget was already below: seconds is an upper bound), "extrapolated": float or
-    None (not reached: the time if the error fell as t^-1/2 from its last value, optimistic)}."""
+    """When one method's error reaches ``target`` for good: interpolated in log-log between
+    the budgets around the last crossing (every larger budget stays at or below ``target``;
+    single renders are noisy, so an early dip does not count).
+
+    Returns {"seconds": float or None, "text": str, "bound": bool (already below at the first
+    budget: seconds is an upper bound), "extrapolated": float or None (not reached: the time
+    if the error fell as t^-1/2 from the largest budget on)}.
+    """
     rs = sorted(records, key=lambda r: r["budget"])
     if not rs:
         return {"seconds": None, "text": "no data", "bound": False, "extrapolated": None}
-    if rs[0]["rel_error"] <= target:
+    above = [i for i, r in enumerate(rs) if r["rel_error"] > target]
+    if not above:
         return {"seconds": rs[0]["seconds"], "text": f"<= {rs[0]['seconds']:.3g} s (first budget)",
                 "bound": True, "extrapolated": None}
-    for a, b in zip(rs, rs[1:]):
-        if a["rel_error"] > target >= b["rel_error"]:
-            la, lb = math.log(a["rel_error"]), math.log(max(b["rel_error"], 1e-12))
-            f = (math.log(target) - la) / (lb - la)
-            t = math.exp(math.log(a["seconds"]) + f * (math.log(b["seconds"]) - math.log(a["seconds"])))
-            return {"seconds": t, "text": f"{t:.3g} s", "bound": False, "extrapolated": None}
-    last = rs[-1]
-    ext = min(r["seconds"] * (r["rel_error"] / target) ** 2 for r in rs)
-    return {"seconds": None, "bound": False, "extrapolated": ext,
-            "text": f"not reached ({100 * last['rel_error']:.3g} % after {last['seconds']:.3g} s)"}
+    i = above[-1]
+    if i == len(rs) - 1:
+        last = rs[-1]
+        ext = last["seconds"] * (last["rel_error"] / target) ** 2
+        return {"seconds": None, "bound": False, "extrapolated": ext,
+                "text": f"not reached ({100 * last['rel_error']:.3g} % after {last['seconds']:.3g} s)"}
+    a, b = rs[i], rs[i + 1]
+    la, lb = math.log(a["rel_error"]), math.log(max(b["rel_error"], 1e-12))
+    f = (math.log(target) - la) / (lb - la)
+    t = math.exp(math.log(a["seconds"]) + f * (math.log(b["seconds"]) - math.log(a["seconds"])))
+    return {"seconds": t, "text": f"{t:.3g} s", "bound": False, "extrapolated": None}
 
 
 def format_error_table(records: list[dict], refs: dict) -> str:
@@ -535,7 +541,7 @@ def format_error_table(records: list[dict], refs: dict) -> str:
             lines.append(f"  {label:<26} {r['budget']:>9} {r['seconds']:>9.3f} "
                          f"{err:>10} {100 * r['rel_error_raw']:>7.2f}%"
                          + ("  (= cone 0 settings: measured once)" if r.get("shared") else ""))
-        lines.append(f"  time to {100 * ERROR_TARGET:g} % error:")
+        lines.append(f"  time to {100 * ERROR_TARGET:g} % error (log-log interpolation at the last crossing):")
         times = {}
         for m in dict.fromkeys(r["method"] for r in records if r["scene"] == scene):
             tt = time_to_error([r for r in records if r["scene"] == scene and r["method"] == m])
@@ -552,12 +558,33 @@ def format_error_table(records: list[dict], refs: dict) -> str:
                 bound = (f"> {longest / tt['seconds']:.3g} measured" if longest > tt["seconds"]
                          else f"no measured bound (path ran {longest:.3g} s at most)")
                 ratio = (f"{bound}; ~{path['extrapolated'] / tt['seconds']:.3g} if path's error fell as "
-                         f"t^-1/2 from its best point (optimistic for path)")
+                         f"t^-1/2 from its largest budget on")
             lines.append(f"    path / {m}: {ratio}" + (" (hybrid time is an upper bound)" if tt["bound"] else ""))
         lines.append("")
     lines.append("seconds: the render's own time (compile, beams, tracing); errors of single renders "
                  "(independent seeds) are themselves noisy by ~1/sqrt(2 x pixels or radiometers).")
     return "\n".join(lines)
+
+
+def plot_error_records(records: list[dict], refs: dict, path: str | Path) -> Path:
+    """Write the log-log plot of error against time, one panel per scene (see run_error_bench)."""
+    from .png import loglog_panels, write_png
+
+    panels = []
+    for scene in dict.fromkeys(r["scene"] for r in records):
+        series = []
+        for m in dict.fromkeys(r["method"] for r in records if r["scene"] == scene):
+            rs = sorted((r for r in records if r["scene"] == scene and r["method"] == m),
+                        key=lambda r: r["budget"])
+            label = m + (" (= cone 0 here)" if rs and rs[0].get("shared") else "")
+            series.append((label, [r["seconds"] for r in rs], [max(r["rel_error"], 1e-4) for r in rs],
+                           METHOD_COLORS.get(m, (0, 0, 0))))
+        panels.append({"title": refs[scene].get("title", scene.replace("_", " ")),
+                       "xlabel": "TIME (S)", "ylabel": "REL. ERROR", "percent": True, "legend": True,
+                       "series": series,
+                       "hlines": [(ERROR_TARGET, (110, 110, 110), "5%"),
+                                  (refs[scene]["noise"], (170, 170, 170), "REF NOISE")]})
+    return write_png(path, loglog_panels(panels))
 
 
 def run_error_bench(quick: bool = False, threads: int = 2, plot: str | Path | None = DEFAULT_ERROR_PLOT,
@@ -612,22 +639,7 @@ def run_error_bench(quick: bool = False, threads: int = 2, plot: str | Path | No
     if print_table:
         print(format_error_table(records, refs))
     if plot:
-        from .png import loglog_panels, write_png
-        panels = []
-        cases = list(dict.fromkeys(r["scene"] for r in records))
-        for k, scene in enumerate(cases):
-            series = []
-            for m in dict.fromkeys(r["method"] for r in records if r["scene"] == scene):
-                rs = sorted((r for r in records if r["scene"] == scene and r["method"] == m),
-                            key=lambda r: r["budget"])
-                series.append((m, [r["seconds"] for r in rs], [max(r["rel_error"], 1e-4) for r in rs],
-                               METHOD_COLORS.get(m, (0, 0, 0))))
-            panels.append({"title": refs[scene]["title"],
-                           "xlabel": "TIME (S)", "ylabel": "REL. ERROR", "percent": True, "legend": k == 0,
-                           "series": series,
-                           "hlines": [(ERROR_TARGET, (110, 110, 110), "5%"),
-                                      (refs[scene]["noise"], (170, 170, 170), "REF NOISE")]})
-        write_png(plot, loglog_panels(panels))
+        plot_error_records(records, refs, plot)
         if print_table:
             print(f"plot: {plot}")
     return records

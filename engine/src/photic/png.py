@@ -201,10 +201,11 @@ def loglog_panels(panels: list[dict], size=(480, 380)) -> np.ndarray:
                     draw_line(img, left - 3, y, left, y, black)
         draw_line(img, left, top, left, bottom, black)
         draw_line(img, left, bottom, right, bottom, black)
-        for yv, color, label in p.get("hlines", []):
+        hl = sorted(p.get("hlines", []), key=lambda h: -h[0])
+        for k2, (yv, color, label) in enumerate(hl):
             draw_line(img, left, Y(yv), right, Y(yv), color, dash=6)
-            if label:
-                draw_text(img, right - 4, int(Y(yv)) - 13, label, color, anchor="right")
+            if label:  # the highest line labelled above itself, the others below
+                draw_text(img, right - 4, int(Y(yv)) + (-13 if k2 == 0 else 4), label, color, anchor="right")
         for label, xs, ys, color in p["series"]:
             pts = [(X(x), Y(y)) for x, y in zip(xs, ys) if x > 0 and y > 0]
             for (a, b), (c, d) in zip(pts, pts[1:]):
@@ -215,8 +216,8 @@ def loglog_panels(panels: list[dict], size=(480, 380)) -> np.ndarray:
         draw_text(img, (left + right) // 2, ph - 20, p.get("xlabel", ""), black, anchor="center")
         # y label: stacked above the axis (no rotated text)
         draw_text(img, ox + 6, top - 20, p.get("ylabel", ""), black)
-        if p.get("legend", False):  # bottom left: errors fall with time, that corner is free
-            ly = bottom - 10 - 16 * len(p["series"])
+        if p.get("legend", False):  # top left
+            ly = top + 8
             lx = left + 10
             for label, _, _, color in p["series"]:
                 draw_line(img, lx, ly + 5, lx + 20, ly + 5, color, width=3)
