@@ -139,14 +139,37 @@ void Scene::build_beams(const Vec3& sun_direction, int threads) {
     }
     for (const auto& m : meshes) {
         if (m.kind != SurfaceKind::kWaterBoundary) continue;
-        size_t nt = m.triangles.size() / 3;
+        size_t nt = m.triangles.size() / 3, nv = m.vertices.size() / 3;
         auto V = [&](uint32_t i) { return Vec3(m.vertices[3 * i], m.vertices[3 * i + 1], m.vertices[3 * i + 2]); };
+        // Smooth shading normals at the corners: the area-weighted normals of the faces around
+        // the vertex that turn by less than 30 deg from this face, so that a wave surface
+        // refracts continuously (adjacent prisms share their rays and focus) while the sharp
+        // edges of a box stay sharp.
+        std::vector<Vec3> fn(nt);
+        std::vector<uint32_t> start(nv + 1, 0), faces;
+        for (size_t t = 0; t < nt; ++t) {
+            const uint32_t* tri = &m.triangles[3 * t];
+            fn[t] = cross(V(tri[1]) - V(tri[0]), V(tri[2]) - V(tri[0]));  // length: twice the area
+            for (int j = 0; j < 3; ++j) start[tri[j] + 1]++;
+        }
+        for (size_t i = 0; i < nv; ++i) start[i + 1] += start[i];
+        faces.resize(start[nv]);
+        std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+        for (size_t t = 0; t < nt; ++t)
+            for (int j = 0; j < 3; ++j) faces[fill[m.triangles[3 * t + j]]++] = uint32_t(t);
+        const double cos_limit = std::cos(30.0 * kPi / 180.0);
         for (size_t t = 0; t < nt; ++t) {
             const uint32_t* tri = &m.triangles[3 * t];
             SourceTri st;
             for (int j = 0; j < 3; ++j) st.p[j] = V(tri[j]);
-            st.nf = normalize(cross(st.p[1] - st.p[0], st.p[2] - st.p[0]));
-            for (int j = 0; j < 3; ++j) st.n[j] = st.nf;
+            st.nf = normalize(fn[t]);
+            if (dot(st.nf, s) <= 0.0) continue;
+            for (int j = 0; j < 3; ++j) {
+                Vec3 sum;
+                for (uint32_t k = start[tri[j]]; k < start[tri[j] + 1]; ++k)
+                    if (dot(normalize(fn[faces[k]]), st.nf) > cos_limit) sum += fn[faces[k]];
+                st.n[j] = normalize(sum);
+            }
             st.water = m.index;
             st.periodic = false;
             if (dot(st.nf, s) > 0.0) src.push_back(st);
