@@ -3,6 +3,7 @@ shadows of objects, and numerically hard cases (grazing sun, foci, TIR from belo
 import numpy as np
 import pytest
 
+from geometry import height_field
 from photic.compile import compile_scene
 from photic.render import render
 from photic.scene import Scene
@@ -10,17 +11,8 @@ from photic.scene import Scene
 
 def wave_patch(period=1.0, n=32, amp=0.01):
     """A periodic height field z = amp sin(kx) sin(ky): crests focus the sun at ~ n R/(n-1)."""
-    g = np.linspace(0.0, period, n + 1)
-    xx, yy = np.meshgrid(g, g, indexing="ij")
     k = 2 * np.pi / period
-    z = amp * np.sin(k * xx) * np.sin(k * yy)
-    v = np.stack([xx.ravel(), yy.ravel(), z.ravel()], 1)
-    idx = lambda i, j: i * (n + 1) + j
-    t = []
-    for i in range(n):
-        for j in range(n):
-            t += [[idx(i, j), idx(i + 1, j), idx(i + 1, j + 1)], [idx(i, j), idx(i + 1, j + 1), idx(i, j + 1)]]
-    return v.tolist(), t
+    return height_field(period, n, lambda x, y: amp * np.sin(k * x) * np.sin(k * y))
 
 
 def wavy_sea(a=0.0, b=0.0, zenith=30.0, diameter=0.53, depth=20.0, amp=0.01, meshes=(), materials=None):

@@ -5,19 +5,11 @@ import numpy as np
 import pytest
 
 from analytic import transmitted_uniform_sky
+from geometry import box, height_field
 from photic.render import render
 from photic.scene import Scene
 
 Z_MAX = 4.0
-
-
-def box(lo, hi):
-    (x0, y0, z0), (x1, y1, z1) = lo, hi
-    v = [[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0],
-         [x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]]
-    t = [[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4],
-         [1, 2, 6], [1, 6, 5], [2, 3, 7], [2, 7, 6], [3, 0, 4], [3, 4, 7]]
-    return v, t
 
 
 def test_closed_non_absorbing_box_conserves_energy(zscore):
@@ -52,15 +44,7 @@ def test_closed_non_absorbing_box_conserves_energy(zscore):
 
 
 def flat_patch(period=2.0, n=8):
-    g = np.linspace(0, period, n + 1)
-    xx, yy = np.meshgrid(g, g, indexing="ij")
-    v = np.stack([xx.ravel(), yy.ravel(), np.zeros(xx.size)], 1)
-    idx = lambda i, j: i * (n + 1) + j
-    t = []
-    for i in range(n):
-        for j in range(n):
-            t += [[idx(i, j), idx(i + 1, j), idx(i + 1, j + 1)], [idx(i, j), idx(i + 1, j + 1), idx(i, j + 1)]]
-    return v.tolist(), t
+    return height_field(period, n)
 
 
 def test_tiled_flat_patch_equals_flat_ocean(zscore):

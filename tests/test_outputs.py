@@ -9,6 +9,7 @@ import numpy as np
 import OpenEXR
 import pytest
 
+from geometry import box
 from photic.compile import band_groups, compile_scene
 from photic.footprints import beam_cap_lengths, footprint_mesh, load_footprints
 from photic.output import write_outputs
@@ -20,15 +21,6 @@ BANDS = [{"name": "450", "center_nm": 450, "width_nm": 10}, {"name": "550", "cen
 
 def run(*args):
     return subprocess.run([sys.executable, "-m", "photic", *map(str, args)], capture_output=True, text=True)
-
-
-def box(lo, hi):
-    (x0, y0, z0), (x1, y1, z1) = lo, hi
-    v = [[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0],
-         [x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]]
-    t = [[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4],
-         [1, 2, 6], [1, 6, 5], [2, 3, 7], [2, 7, 6], [3, 0, 4], [3, 4, 7]]
-    return v, t
 
 
 def base_scene(surface, bottom=4.0, name="outputs"):
