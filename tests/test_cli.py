@@ -53,3 +53,13 @@ def test_help_documents_commands():
     assert p.returncode == 0 and "render" in p.stdout and "bench" in p.stdout
     p = run("render", "--help")
     assert "--samples" in p.stdout and "--seed" in p.stdout and "--threads" in p.stdout
+
+
+def test_integrator_and_cone_overrides(tmp_path):
+    p = run("render", EXAMPLE, "--out", tmp_path, "--samples", "1", "--radiometer-samples", "1000",
+            "--integrator", "path", "--quiet")
+    assert p.returncode == 0, p.stderr
+    assert "path;" in p.stdout
+    p = run("render", EXAMPLE, "--out", tmp_path, "--samples", "1", "--radiometer-samples", "1000",
+            "--forward-cone", "45", "--quiet")
+    assert p.returncode == 2 and "forward_cone_deg" in p.stderr and "Traceback" not in p.stderr

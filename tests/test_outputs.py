@@ -11,7 +11,7 @@ import pytest
 
 from geometry import box
 from photic.compile import band_groups, compile_scene
-from photic.footprints import beam_cap_lengths, footprint_mesh, load_footprints
+from photic.footprints import footprint_mesh, load_footprints
 from photic.output import write_outputs
 from photic.render import COMPONENTS, render
 from photic.scene import Scene
@@ -134,9 +134,8 @@ def test_beam_mesh_of_a_wavy_ocean(tmp_path):
     scene = Scene.from_dict(d)
     core = compile_scene(scene, band_groups(len(scene.bands))[0], hybrid=True, forward_cone_deg=0)
     core.build_beams(tuple(scene.sun.direction), 0)
-    _, _, length, _ = core.prism_arrays()
-    caps = beam_cap_lengths(scene)
-    assert np.all(np.asarray(length) < 0.99 * min(caps))  # no ray stopped by the cap
+    hit = core.prism_arrays()[4]
+    assert np.asarray(hit).all()  # every ray ends on the bottom
     assert len(mesh.faces) == core.beam_count
     total = core.beam_total_flux()
     assert total > 0
@@ -154,8 +153,8 @@ def test_beam_mesh_leaves_out_rays_that_hit_nothing():
     core = compile_scene(scene, hybrid=True, forward_cone_deg=0)
     core.build_beams(tuple(scene.sun.direction), 0)
     assert core.beam_count > 0
-    assert len(footprint_mesh(core, beam_cap_lengths(scene)).faces) == 0
-    assert len(footprint_mesh(core).faces) == core.beam_count  # without caps: all kept
+    assert not np.asarray(core.prism_arrays()[4]).any()  # no ray meets a surface
+    assert len(footprint_mesh(core).faces) == 0
 
 
 def test_beam_mesh_errors_without_beams(tmp_path):

@@ -254,6 +254,7 @@ void Scene::build_beams(const Vec3& sun_direction, int threads) {
                 P.v[j] = it.p[j];
                 P.d[j] = r[j].d;
                 P.len[j] = r[j].len;
+                P.hit[j] = r[j].id != -1;
                 down = down && -r[j].d.z > 0.1;
             }
             // Horizontal slices when the beam goes down (flux through horizontal planes is then

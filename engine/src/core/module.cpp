@@ -128,11 +128,13 @@ PYBIND11_MODULE(_core, m) {
             return flux;
         }, py::arg("z"))
         .def("prism_arrays", [](const Scene& s) {
-            // (start vertices (N,3,3), directions (N,3,3), lengths (N,3), flux band 0 (N,))
+            // (start vertices (N,3,3), directions (N,3,3), lengths (N,3), flux band 0 (N,),
+            //  whether each ray ended on a surface (N,3))
             size_t n = s.prisms.size();
             DArray v({py::ssize_t(n), py::ssize_t(3), py::ssize_t(3)}), d({py::ssize_t(n), py::ssize_t(3), py::ssize_t(3)});
             DArray len({py::ssize_t(n), py::ssize_t(3)});
             DArray phi{py::ssize_t(n)};
+            py::array_t<bool> hit({py::ssize_t(n), py::ssize_t(3)});
             for (size_t i = 0; i < n; ++i) {
                 const auto& P = s.prisms[i];
                 for (int j = 0; j < 3; ++j) {
@@ -141,10 +143,11 @@ PYBIND11_MODULE(_core, m) {
                         d.mutable_at(i, j, c) = P.d[j][c];
                     }
                     len.mutable_at(i, j) = P.len[j];
+                    hit.mutable_at(i, j) = P.hit[j];
                 }
                 phi.mutable_at(i) = P.phi.v[0];
             }
-            return py::make_tuple(v, d, len, phi);
+            return py::make_tuple(v, d, len, phi, hit);
         })
         .def("add_material", [](Scene& s, DArray refl) {
             s.materials.push_back({to_spectrum(refl, s.nbands, "reflectance")});

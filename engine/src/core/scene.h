@@ -98,6 +98,7 @@ struct BeamSample {
 struct BeamPrism {
     Vec3 v[3], d[3];
     double len[3];     // where each vertex ray ends (hit surface, or attenuation cap)
+    bool hit[3];       // whether it ended on a surface
     Vec3 m;            // slicing normal
     double md[3], mv[3];
     Vec3 n_src;        // source triangle normal (pointing to the air side)

@@ -32,7 +32,7 @@ def _write_beam_mesh(scene, path, threads) -> int:
     """--beam-mesh: build the beams once for the sun's central direction and write their
     footprints. Returns an exit status (1 with a message when there is nothing to write)."""
     from .compile import band_groups, compile_scene
-    from .footprints import beam_cap_lengths, write_footprints
+    from .footprints import write_footprints
 
     group = band_groups(len(scene.bands))[0]
     core = compile_scene(scene, group, hybrid=True, forward_cone_deg=0)
@@ -44,7 +44,7 @@ def _write_beam_mesh(scene, path, threads) -> int:
               file=sys.stderr)
         return 1
     try:
-        out = write_footprints(path, core, beam_cap_lengths(scene, group, forward_cone_deg=0))
+        out = write_footprints(path, core)
     except (OSError, ValueError) as e:
         print(f"photic: --beam-mesh: cannot write {path}: {e}", file=sys.stderr)
         return 1
@@ -62,6 +62,10 @@ def cmd_render(args) -> int:
 
     try:
         scene = load_scene(args.scene)
+        if args.integrator:
+            scene.settings.integrator = args.integrator
+        if args.forward_cone is not None:
+            scene.settings.forward_cone_deg = args.forward_cone if args.forward_cone == "auto" else float(args.forward_cone)
         renderer = Renderer(scene, samples=args.samples, radiometer_samples=args.radiometer_samples,
                             seed=args.seed, threads=args.threads)
     except SceneError as e:
@@ -174,6 +178,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--radiometer-samples", type=int, default=None,
                    help="samples per radiometer (default: the scene's)")
     r.add_argument("--seed", type=int, default=None, help="random seed (default: the scene's)")
+    r.add_argument("--integrator", choices=["auto", "hybrid", "path"], default=None,
+                   help="hybrid (the refracted sun as beams), path (pure path tracing) or auto "
+                        "(hybrid when there is a sun); default: the scene's")
+    r.add_argument("--forward-cone", default=None,
+                   help="forward-scattering cone half-angle in degrees kept in the beams, or auto; default: the scene's")
     r.add_argument("--threads", type=int, default=None, help="threads, 0 = all cores (default: the scene's)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.add_argument("--beam-mesh", type=Path, default=None, metavar="PATH",
