@@ -170,12 +170,7 @@ PYBIND11_MODULE(_core, m) {
                 for (int k = 0; k < s.nbands; ++k) w.b.v[k] += c.b.v[k];
                 w.components.push_back(c);
             }
-            w.a_min = w.a.v[0];
-            for (int k = 0; k < s.nbands; ++k) {
-                w.majorant = std::max(w.majorant, w.b.v[k]);
-                w.a_min = std::min(w.a_min, w.a.v[k]);
-            }
-            s.waters.push_back(w);
+            s.waters.push_back(w);  // path/beam coefficients: Scene::set_forward_cone at commit
             return int(s.waters.size()) - 1;
         }, py::arg("ior"), py::arg("absorption"), py::arg("components"))
         .def("add_mesh", [](Scene& s, FArray v, UArray t, int kind, int index) {
