@@ -117,3 +117,17 @@ def test_radiometer_in_a_caustic_and_deep_hard_water():
     core = beams_for(scene)
     vals = [sum(e[0] for _, e in core.beams_at((x, y, -7.0), 0)) for x in np.linspace(0, 1, 41) for y in np.linspace(0, 1, 41)]
     assert np.isfinite(vals).all() and max(vals) < 1e6
+
+
+def test_camera_in_a_caustic_and_looking_at_total_internal_reflection():
+    """An underwater camera at the crests' focal depth, one half of its view looking up beyond
+    the critical angle (total internal reflection from below): finite, non-negative pixels,
+    beams present on the bottom."""
+    scene = wavy_sea(a=0.05, b=0.1, depth=12.0)
+    scene.cameras = Scene.from_dict({"photic_scene": 1, "cameras": [
+        {"name": "focus", "type": "perspective", "position": [0.25, 0.25, -8.0], "direction": [1, 0, 0.3],
+         "up": [0, 0, 1], "fov_deg": 90, "resolution": [12, 8]}]}).cameras
+    res = render(scene, samples=4, radiometer_samples=1024)
+    img = res.images["focus"]
+    assert np.isfinite(img.mean).all() and (img.mean >= 0).all()
+    assert img.components["beam_surface"].max() > 0 or img.components["beam_volume"].max() > 0
