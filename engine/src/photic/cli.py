@@ -132,8 +132,8 @@ def cmd_bench(args) -> int:
 
 
 def cmd_problems(args) -> int:
-    from .problems import CONFIGS, format_records, reference_table, run_problem
-    from .scene import load_scene
+    from .problems import CONFIGS, format_records, problem_scene, reference_table, run_problem
+    from .scene import Scene, load_scene
 
     refs = reference_table()
     folder = Path(args.scenes)
@@ -142,7 +142,8 @@ def cmd_problems(args) -> int:
         if args.problem and problem not in args.problem:
             continue
         path = folder / f"mobley1993_problem{problem}_omega{omega0:g}.json"
-        scene = load_scene(path)
+        # The repository's scene files; an installed package without them builds the same scenes.
+        scene = load_scene(path) if path.exists() else Scene.from_dict(problem_scene(problem, omega0))
         cone = None if args.forward_cone is None else (args.forward_cone if args.forward_cone == "auto" else float(args.forward_cone))
         records += run_problem(scene, problem, omega0, refs, samples=args.samples, threads=args.threads,
                                forward_cone_deg=cone)
