@@ -73,13 +73,21 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
     }
 }
 
-bool Scene::strongest_beam(const Vec3& x, int medium, Vec3* d) const {
-    BeamSample beams[kMaxBeams];
-    int n = beams_at(x, medium, beams, kMaxBeams);
+namespace {
+
+// The direction of the brightest beam (band 0) of a list; false when there is none.
+bool brightest(const BeamSample* beams, int n, Vec3* d) {
     double best = 0.0;
     for (int j = 0; j < n; ++j)
         if (beams[j].e.v[0] > best) { best = beams[j].e.v[0]; *d = beams[j].d; }
     return best > 0.0;
+}
+
+}  // namespace
+
+bool Scene::strongest_beam(const Vec3& x, int medium, Vec3* d) const {
+    BeamSample beams[kMaxBeams];
+    return brightest(beams, beams_at(x, medium, beams, kMaxBeams), d);
 }
 
 double Scene::beam_direction_pdf(const Water& w, const Vec3& beam_d, const Vec3& omega) const {
@@ -511,7 +519,10 @@ void Scene::radiometer_sample(int ri, uint64_t index, Spectrum* out, int* bin, C
     bool sensor_beams = hybrid && r.medium >= 0;
     double first_weight = 1.0;
     Vec3 bd;
-    if (sensor_beams && strongest_beam(r.position, r.medium, &bd)) {
+    // The beams at the radiometer serve both the MIS below and the closed-form direct term.
+    BeamSample beams[kMaxBeams];
+    int nbeams = sensor_beams ? beams_at(r.position, r.medium, beams, kMaxBeams) : 0;
+    if (brightest(beams, nbeams, &bd)) {
         // Beam-scattering MIS for the first segment: the sensor's own directions against
         // directions drawn from the phase function around the beam (looking towards the sun).
         const Water& wat = waters[r.medium];
@@ -546,9 +557,7 @@ void Scene::radiometer_sample(int ri, uint64_t index, Spectrum* out, int* bin, C
     }
     if (sensor_beams) {
         // The refracted sun at the radiometer itself, in closed form.
-        BeamSample beams[kMaxBeams];
-        int n = beams_at(r.position, r.medium, beams, kMaxBeams);
-        for (int j = 0; j < n; ++j) {
+        for (int j = 0; j < nbeams; ++j) {
             double resp = response(-beams[j].d);
             if (resp > 0.0)
                 for (int k = 0; k < nbands; ++k) out[4].v[k] += resp * beams[j].e.v[k];

@@ -240,6 +240,25 @@ class Renderer:
             beam_stats["passes"] += 1
             beam_stats["prisms"] = max(beam_stats["prisms"], core.beam_count)
 
+        def run_passes(core, gi, g, key, passes, render_pass, sums, done, done_key, work_per_sample, label, total):
+            """Render one sensor's passes into its sums; False when cancelled (the cancelled
+            pass is dropped)."""
+            nonlocal done_work
+            for pi, (start, n) in enumerate(passes):
+                new_pass(core, gi, key, pi, len(passes))
+                s, s2, c = render_pass(start, n)
+                if core.cancelled:
+                    return False
+                sums[0][..., g] += s
+                sums[1][..., g] += s2
+                if gi == 0:
+                    done[done_key] = start + n
+                add_counts(c)
+                done_work += work_per_sample * n
+                if progress:
+                    progress(done_work / total_work, f"{label}: {start + n}/{total} samples")
+            return True
+
         cancelled = False
         for gi, g in enumerate(groups):
             core = compile_scene(scene, g, seed=self.seed, hybrid=hybrid,
@@ -254,39 +273,20 @@ class Renderer:
                     nbins = core.radiometer_bins(ri)
                     rad_sums.append([np.zeros((nbins, nc, nb)), np.zeros((nbins, nc, nb))])
             for ci, cam in enumerate(scene.cameras):
-                for pi, (start, n) in enumerate(cam_passes):
-                    new_pass(core, gi, (0, ci), pi, len(cam_passes))
-                    s, s2, c = core.render_camera(ci, start, n, self.threads)
-                    if core.cancelled:
-                        cancelled = True
-                        break
-                    cam_sums[cam.name][0][..., g] += s
-                    cam_sums[cam.name][1][..., g] += s2
-                    if gi == 0:
-                        cam_done[cam.name] = start + n
-                    add_counts(c)
-                    done_work += cam.resolution[0] * cam.resolution[1] * n
-                    if progress:
-                        progress(done_work / total_work, f"camera {cam.name}: {start + n}/{self.samples} samples")
-                if cancelled:
+                ok = run_passes(core, gi, g, (0, ci), cam_passes, lambda st, n, ci=ci: core.render_camera(ci, st, n, self.threads),
+                                cam_sums[cam.name], cam_done, cam.name,
+                                cam.resolution[0] * cam.resolution[1], f"camera {cam.name}", self.samples)
+                if not ok:
+                    cancelled = True
                     break
             for ri, r in enumerate(radiometers):
                 if cancelled:
                     break
-                for pi, (start, n) in enumerate(rad_passes):
-                    new_pass(core, gi, (1, ri), pi, len(rad_passes))
-                    s, s2, c = core.render_radiometer(ri, start, n, self.threads)
-                    if core.cancelled:
-                        cancelled = True
-                        break
-                    rad_sums[ri][0][..., g] += s
-                    rad_sums[ri][1][..., g] += s2
-                    if gi == 0:
-                        rad_done[ri] = start + n
-                    add_counts(c)
-                    done_work += n
-                    if progress:
-                        progress(done_work / total_work, f"radiometer {r.name}: {start + n}/{self.radiometer_samples} samples")
+                ok = run_passes(core, gi, g, (1, ri), rad_passes, lambda st, n, ri=ri: core.render_radiometer(ri, st, n, self.threads),
+                                rad_sums[ri], rad_done, ri, 1, f"radiometer {r.name}", self.radiometer_samples)
+                if not ok:
+                    cancelled = True
+                    break
             if cancelled:
                 break
         self._core = None
