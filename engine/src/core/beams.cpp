@@ -277,19 +277,18 @@ void Scene::build_beams(const Vec3& sun_direction, int threads) {
                     P.lo = Vec3(std::min(P.lo.x, q.x), std::min(P.lo.y, q.y), std::min(P.lo.z, q.z));
                     P.hi = Vec3(std::max(P.hi.x, q.x), std::max(P.hi.y, q.y), std::max(P.hi.z, q.z));
                 }
-            for (const auto& [lo, hi] : object_boxes) {
-                bool overlap = lo.x <= P.hi.x && hi.x >= P.lo.x && lo.y <= P.hi.y && hi.y >= P.lo.y &&
-                               lo.z <= P.hi.z && hi.z >= P.lo.z;
-                if (overlap && !st.periodic) P.check_visibility = true;
-                // Periodic prisms are shifted at query time: always test visibility there.
-                if (st.periodic) P.check_visibility = true;
-            }
+            // Periodic prisms are shifted at query time, so any object may cut one of their
+            // images: they test visibility whenever the scene has objects.
+            if (st.periodic && !object_boxes.empty()) P.check_visibility = true;
+            for (const auto& [lo, hi] : object_boxes)
+                if (lo.x <= P.hi.x && hi.x >= P.lo.x && lo.y <= P.hi.y && hi.y >= P.lo.y &&
+                    lo.z <= P.hi.z && hi.z >= P.lo.z)
+                    P.check_visibility = true;
             out[ti].push_back(P);
         }
     });
     for (auto& v : out)
         for (auto& p : v) prisms.push_back(p);
-    // Periodic prisms come first in `src`, so their count marks the split.
     build_grid();
 }
 
