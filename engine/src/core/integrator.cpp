@@ -437,18 +437,20 @@ void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
                     fx = (u1 - 0.5) * cam.filter_width; fy = (u2 - 0.5) * cam.filter_width;
                 }
                 // Normalised image coordinates in [-1, 1] horizontally, row 0 at the top.
-                double sx = 2.0 * ((px + 0.5 + fx) / cam.width) - 1.0;
-                double sy = 1.0 - 2.0 * ((row + 0.5 + fy) / cam.height);
+                // A lens shift moves the image window by whole image widths (2 in these units).
                 double aspect = double(cam.height) / double(cam.width);
+                double sx = 2.0 * ((px + 0.5 + fx) / cam.width) - 1.0 + 2.0 * cam.shift_x;
+                double sy = (1.0 - 2.0 * ((row + 0.5 + fy) / cam.height)) * aspect + 2.0 * cam.shift_y;
                 Vec3 o, d;
                 if (cam.orthographic) {
                     double hw = 0.5 * cam.ortho_width;
-                    o = cam.position + cam.right * (sx * hw) + cam.up * (sy * hw * aspect);
+                    o = cam.position + cam.right * (sx * hw) + cam.up * (sy * hw) +
+                        cam.forward * cam.clip_start;
                     d = cam.forward;
                 } else {
-                    o = cam.position;
                     d = normalize(cam.forward + cam.right * (sx * cam.tan_half_fov) +
-                                  cam.up * (sy * cam.tan_half_fov * aspect));
+                                  cam.up * (sy * cam.tan_half_fov));
+                    o = cam.position + d * (cam.clip_start / dot(d, cam.forward));
                 }
                 Components L = trace(o, d, cam.medium, false, false, rng, cnt);
                 Spectrum comp[kNumComponents] = {Spectrum(), L.beam_surface, L.beam_volume, L.path, Spectrum()};

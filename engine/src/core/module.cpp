@@ -212,7 +212,7 @@ PYBIND11_MODULE(_core, m) {
         })
         .def("add_camera", [](Scene& s, bool ortho, std::array<double, 3> pos, std::array<double, 3> fwd,
                               std::array<double, 3> up, double fov_deg, double ortho_width, int w, int h,
-                              int filter, double filter_width) {
+                              int filter, double filter_width, std::array<double, 2> shift, double clip_start) {
             Camera c;
             c.orthographic = ortho;
             c.position = to_vec(pos);
@@ -222,6 +222,7 @@ PYBIND11_MODULE(_core, m) {
             c.tan_half_fov = std::tan(0.5 * fov_deg * kPi / 180.0);
             c.ortho_width = ortho_width;
             c.width = w; c.height = h; c.filter = filter; c.filter_width = filter_width;
+            c.shift_x = shift[0]; c.shift_y = shift[1]; c.clip_start = clip_start;
             s.cameras.push_back(c);
             return int(s.cameras.size()) - 1;
         })

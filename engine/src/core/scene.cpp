@@ -97,7 +97,8 @@ void Scene::commit() {
         eps_ = 1e-6 * extent_;
     }
     set_forward_cone(cone_half_angle);
-    for (auto& c : cameras) c.medium = medium_at(c.position);
+    // Rays start on the near clipping plane, so the medium is the one there.
+    for (auto& c : cameras) c.medium = medium_at(c.position + c.forward * c.clip_start);
     for (auto& r : radiometers) r.medium = medium_at(r.position);
 }
 

@@ -81,6 +81,8 @@ struct Camera {
     bool orthographic = false;
     Vec3 position, forward, right, up;   // orthonormal
     double tan_half_fov = 0.4, ortho_width = 2.0;
+    double shift_x = 0.0, shift_y = 0.0;   // image centre offset in image widths (lens shift)
+    double clip_start = 0.0;               // m along forward: rays start on this plane
     int width = 64, height = 64;
     int filter = 0;            // 0 box, 1 gaussian
     double filter_width = 1.0; // px: box full width; gaussian FWHM

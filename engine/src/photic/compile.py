@@ -107,7 +107,8 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
                         tuple(map(float, cam.direction)), tuple(map(float, cam.up)),
                         float(cam.fov_deg), float(cam.ortho_width),
                         int(cam.resolution[0]), int(cam.resolution[1]),
-                        1 if cam.filter_type == "gaussian" else 0, float(cam.filter_width_px))
+                        1 if cam.filter_type == "gaussian" else 0, float(cam.filter_width_px),
+                        tuple(float(x) for x in cam.shift), float(cam.clip_start))
 
     for r in scene.all_radiometers():
         core.add_radiometer(QUANTITY_CODES[r.quantity], tuple(map(float, r.position)),

@@ -176,6 +176,13 @@ class Renderer:
             raise SceneError("settings", "threads", f"must be in 0..1024, got {self.threads}")
         self._cancel = threading.Event()
         self._core = None
+        # Running sums of the cameras, readable while rendering (snapshot) under the lock.
+        self._lock = threading.Lock()
+        self._cam_sums: dict = {}
+        self._cam_done: dict = {}
+        self.progress = 0.0
+        self.counters = {"segments": 0, "shadow_rays": 0, "paths": 0}
+        self.t_start = None
 
     def cancel(self) -> None:
         """Stop as soon as possible (safe to call from another thread)."""
@@ -183,6 +190,20 @@ class Renderer:
         core = self._core
         if core is not None:
             core.cancel()
+
+    def snapshot(self, camera: str) -> ImageResult | None:
+        """The current estimate of a camera while it renders (None before its first pass).
+
+        Safe to call from another thread: passes are added under a lock, so the sums and the
+        sample count always belong together."""
+        with self._lock:
+            if camera not in self._cam_sums or not self._cam_done.get(camera):
+                return None
+            n = self._cam_done[camera]
+            s, s2 = (a.copy() for a in self._cam_sums[camera])
+        mean, err = _mean_stderr(s, s2, n)
+        comps = {name: mean[:, :, i + 1, :] for i, name in enumerate(COMPONENTS[:3])}
+        return ImageResult(camera, mean[:, :, 0, :], err[:, :, 0, :] ** 2, n, comps)
 
     def _camera_passes(self) -> list[tuple[int, int]]:
         passes, start, size = [], 0, 1
@@ -203,9 +224,9 @@ class Renderer:
         threads = self.threads or (os.cpu_count() or 1)
         hybrid = self.integrator == "hybrid"
         result = RenderResult(scene.name, list(scene.bands))
-        cam_sums = {c.name: [np.zeros((c.resolution[1], c.resolution[0], nc, nb)) for _ in range(2)]
-                    for c in scene.cameras}
-        cam_done = {c.name: 0 for c in scene.cameras}
+        cam_sums = self._cam_sums = {c.name: [np.zeros((c.resolution[1], c.resolution[0], nc, nb))
+                                              for _ in range(2)] for c in scene.cameras}
+        cam_done = self._cam_done = {c.name: 0 for c in scene.cameras}
         rad_sums, rad_done = [], [0] * len(radiometers)
         cam_passes = self._camera_passes()
         # The hybrid integrator draws a sun direction per pass: at least 64 passes (of 4,096 to
@@ -219,10 +240,10 @@ class Renderer:
         total_work = len(groups) * (sum(c.resolution[0] * c.resolution[1] * self.samples for c in scene.cameras)
                                     + len(radiometers) * self.radiometer_samples)
         done_work = 0
-        counters = {"segments": 0, "shadow_rays": 0, "paths": 0}
+        counters = self.counters = {"segments": 0, "shadow_rays": 0, "paths": 0}
         media = [None] * len(radiometers)
         beam_stats = {"passes": 0, "prisms": 0, "build_s": 0.0}
-        t0 = time.perf_counter()
+        t0 = self.t_start = time.perf_counter()
 
         def add_counts(c):
             for k in counters:
@@ -249,12 +270,14 @@ class Renderer:
                 s, s2, c = render_pass(start, n)
                 if core.cancelled:
                     return False
-                sums[0][..., g] += s
-                sums[1][..., g] += s2
-                if gi == 0:
-                    done[done_key] = start + n
-                add_counts(c)
-                done_work += work_per_sample * n
+                with self._lock:
+                    sums[0][..., g] += s
+                    sums[1][..., g] += s2
+                    if gi == 0:
+                        done[done_key] = start + n
+                    add_counts(c)
+                    done_work += work_per_sample * n
+                    self.progress = done_work / total_work
                 if progress:
                     progress(done_work / total_work, f"{label}: {start + n}/{total} samples")
             return True

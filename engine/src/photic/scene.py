@@ -441,11 +441,15 @@ class Camera(_ArrayEq):
     resolution: tuple[int, int] = (64, 64)
     filter_type: str = "box"
     filter_width_px: float = 1.0
+    shift: tuple[float, float] = (0.0, 0.0)  # image centre offset, in image widths (lens shift)
+    clip_start: float = 0.0                  # m along the view axis before which nothing is seen
 
     def __post_init__(self):
         self.position = _as_floats(self.position)
         self.direction = _unit(_as_floats(self.direction))
         self.up = _as_floats(self.up)
+        if isinstance(self.shift, (list, np.ndarray)):
+            self.shift = tuple(float(x) for x in self.shift)
         if isinstance(self.resolution, (list, np.ndarray)):
             self.resolution = tuple(self.resolution.tolist() if isinstance(
                 self.resolution, np.ndarray) else self.resolution)
@@ -858,6 +862,11 @@ def _validate_camera(label: str, c: Camera) -> None:
         _check_int(label, f"resolution[{i}]", n, 1, 16384)
     _check_choice(label, "filter.type", c.filter_type, FILTER_TYPES)
     _check_real(label, "filter.width_px", c.filter_width_px, 0, lo_open=True)
+    if not isinstance(c.shift, tuple) or len(c.shift) != 2:
+        raise SceneError(label, "shift", f"must be [x, y], got {_show(c.shift)}")
+    for i, x in enumerate(c.shift):
+        _check_real(label, f"shift[{i}]", x, -10, 10)
+    _check_real(label, "clip_start", c.clip_start, 0)
 
 
 def _validate_radiometer(label: str, r: Radiometer) -> None:
@@ -1185,7 +1194,9 @@ def _read_camera(label: str, d: dict) -> Camera:
         fov_deg=float(d.get("fov_deg", 40.0)), ortho_width=float(d.get("ortho_width", 2.0)),
         resolution=tuple(int(n) for n in d.get("resolution", (64, 64))),
         filter_type=flt["type"],
-        filter_width_px=float(flt.get("width_px", _FILTER_DEFAULT_WIDTH[flt["type"]])))
+        filter_width_px=float(flt.get("width_px", _FILTER_DEFAULT_WIDTH[flt["type"]])),
+        shift=tuple(float(x) for x in d.get("shift", (0.0, 0.0))),
+        clip_start=float(d.get("clip_start", 0.0)))
 
 
 def _read_radiometer(d: dict) -> Radiometer:
@@ -1312,7 +1323,8 @@ def _scene_to_dict(s: Scene) -> dict:
                      "direction": _list(c.direction), "up": _list(c.up),
                      "fov_deg": float(c.fov_deg), "ortho_width": float(c.ortho_width),
                      "resolution": [int(n) for n in c.resolution],
-                     "filter": {"type": c.filter_type, "width_px": float(c.filter_width_px)}}
+                     "filter": {"type": c.filter_type, "width_px": float(c.filter_width_px)},
+                     "shift": [float(x) for x in c.shift], "clip_start": float(c.clip_start)}
                     for c in s.cameras],
         "radiometers": [{"name": r.name, "quantity": r.quantity, "position": _list(r.position),
                          "direction": _list(r.direction),
