@@ -32,7 +32,7 @@ __all__ = [
     "FORMAT_VERSION", "PHASE_FUNCTION_PARAMS", "QUANTITIES", "SceneError", "Band", "Material",
     "PhaseFunction", "ScatteringComponent", "IOPs", "TriangleMesh", "MeshObject",
     "OceanSurface", "WaterBody", "Sun", "Sky", "Camera", "Radiometer", "RadiometerArray",
-    "Settings", "Scene", "load_scene", "save_scene", "scene_schema",
+    "Settings", "Scene", "check_closed_mesh", "load_scene", "save_scene", "scene_schema",
 ]
 
 FORMAT_VERSION = 1
@@ -715,6 +715,17 @@ def _check_mesh(label: str, prefix: str, mesh: Any) -> None:
         raise SceneError(label, f"{prefix}triangles[{bad[0]}]",
                          f"zero-area (degenerate) triangle {t[bad[0]].tolist()}: area "
                          f"{area[bad[0]]:.3g} m^2 < 1e-12 x (bounding-box diagonal)^2")
+
+
+def check_closed_mesh(label: str, mesh: TriangleMesh) -> None:
+    """Check a water mesh on its own (as ``Scene.validate`` does): valid, closed, outward.
+
+    Raises
+    ------
+    SceneError
+        Naming ``label`` and the field."""
+    _check_mesh(label, "", mesh)
+    _check_closed(label, mesh)
 
 
 def _check_closed(label: str, mesh: TriangleMesh) -> None:

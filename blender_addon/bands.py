@@ -1,0 +1,91 @@
+"""Spectral bands of a Blender scene and the mapping between bands and Blender's RGB.
+
+Until the spectral issue brings CIE colour matching, colours map to bands by the nearest
+primary: a band below 490 nm takes blue, 490-580 nm green, above 580 nm red; and an image shows
+the bands nearest 620, 550 and 460 nm as red, green and blue (one band: grey).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+RGB_BANDS = ((620.0, 80.0), (550.0, 60.0), (460.0, 80.0))  # centre, width (nm): R, G, B
+_DISPLAY_NM = (620.0, 550.0, 460.0)
+
+
+class BandError(ValueError):
+    """A bad band list: ``prop`` is the scene property, the message says what is wrong."""
+
+    def __init__(self, prop: str, message: str):
+        super().__init__(prop, message)
+        self.prop = prop
+        self.message = message
+
+
+def parse_number_list(text: str, what: str) -> list[float]:
+    """Numbers separated by commas or spaces; raises ValueError naming the bad item."""
+    items = [t for t in text.replace(",", " ").split() if t]
+    values = []
+    for i, t in enumerate(items):
+        try:
+            x = float(t)
+        except ValueError:
+            raise ValueError(f"item {i + 1} of {what} ({t!r}) is not a number") from None
+        values.append(x)
+    return values
+
+
+def scene_bands(props) -> list[tuple[str, float, float]]:
+    """(name, centre_nm, width_nm) of each band from ``Scene.photic``."""
+    if props.bands == "RGB":
+        return [(f"{c:g}", c, w) for c, w in RGB_BANDS]
+    if props.bands == "SINGLE":
+        c, w = props.band_center_nm, props.band_width_nm
+        return [(f"{c:g}", c, w)]
+    bands = []
+    for i, item in enumerate(t for t in props.custom_bands.split(",") if t.strip()):
+        parts = item.replace(":", " ").split()
+        try:
+            c, w = (float(parts[0]), float(parts[1])) if len(parts) == 2 else (float(parts[0]), 10.0)
+            if len(parts) > 2:
+                raise ValueError
+        except (ValueError, IndexError):
+            raise BandError("custom_bands", f"band {i + 1} ({item.strip()!r}) must be "
+                                            f"'centre_nm:width_nm' or 'centre_nm'") from None
+        if not (math.isfinite(c) and 200.0 <= c <= 3000.0):
+            raise BandError("custom_bands", f"band {i + 1}: centre {c:g} nm is outside 200-3000 nm")
+        if not (math.isfinite(w) and w > 0.0):
+            raise BandError("custom_bands", f"band {i + 1}: width {w:g} nm must be > 0")
+        bands.append((f"{c:g}", c, w))
+    if not bands:
+        raise BandError("custom_bands", "is empty: give at least one band, e.g. '450:20, 550:20'")
+    names = [b[0] for b in bands]
+    if len(set(names)) != len(names):
+        raise BandError("custom_bands", "lists the same band centre twice")
+    return bands
+
+
+def _primary(center_nm: float) -> int:
+    """Index into (R, G, B) of the primary a band takes its colour from."""
+    return 2 if center_nm < 490.0 else (1 if center_nm <= 580.0 else 0)
+
+
+def rgb_to_bands(rgb, bands) -> np.ndarray:
+    """Per-band values from an RGB triple (nearest primary per band)."""
+    rgb = [float(x) for x in rgb[:3]]
+    return np.array([rgb[_primary(c)] for _, c, _ in bands])
+
+
+def display_indices(bands) -> list[int]:
+    """Band index shown as R, G and B."""
+    centres = np.array([c for _, c, _ in bands])
+    return [int(np.argmin(np.abs(centres - nm))) for nm in _DISPLAY_NM]
+
+
+def bands_to_rgba(image: np.ndarray, bands) -> np.ndarray:
+    """(H, W, nbands) -> (H, W, 4) float32 with alpha 1, the display bands as R, G, B."""
+    h, w = image.shape[:2]
+    out = np.ones((h, w, 4), np.float32)
+    out[:, :, :3] = image[:, :, display_indices(bands)]
+    return out

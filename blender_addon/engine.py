@@ -1,0 +1,69 @@
+"""The Photic RenderEngine: a thin class forwarding to ``final_render`` and ``viewport``."""
+from __future__ import annotations
+
+import bpy
+
+from . import final_render, viewport
+
+
+class PhoticRenderEngine(bpy.types.RenderEngine):
+    bl_idname = "PHOTIC"
+    bl_label = "Photic"
+    bl_use_preview = False
+    bl_use_shading_nodes_custom = False
+    bl_use_postprocess = True
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.viewport = None
+
+    def __del__(self):
+        # The viewport's worker thread must not outlive the engine.
+        vp = getattr(self, "viewport", None)
+        if vp is not None:
+            vp.stop()
+
+    def render(self, depsgraph):
+        for name in final_render.PASS_NAMES:
+            self.add_pass(name, 3, "RGB")
+        final_render.FinalRender(self, depsgraph).run()
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        # Makes the passes known to the compositor and the multilayer EXR output.
+        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
+        for name in final_render.PASS_NAMES:
+            self.register_pass(scene, renderlayer, name, 3, "RGB", "COLOR")
+
+    def view_update(self, context, depsgraph):
+        if self.viewport is None:
+            self.viewport = viewport.ViewportRender(self)
+        self.viewport.update(context, depsgraph)
+
+    def view_draw(self, context, depsgraph):
+        if self.viewport is None:
+            self.viewport = viewport.ViewportRender(self)
+        self.viewport.draw(context, depsgraph)
+
+
+def compatible_panels():
+    """Built-in panels that also apply to Photic (camera, light, output, material slots)."""
+    wanted = {"DATA_PT_lens", "DATA_PT_camera", "DATA_PT_camera_display", "DATA_PT_context_light",
+              "DATA_PT_light", "DATA_PT_sunlight", "EEVEE_LIGHT_PT_sun", "MATERIAL_PT_context_material",
+              "RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_output",
+              "RENDER_PT_color_management", "RENDER_PT_dimensions", "WORLD_PT_context_world",
+              "DATA_PT_context_camera", "DATA_PT_context_mesh", "DATA_PT_normals",
+              "DATA_PT_uv_texture", "DATA_PT_vertex_groups", "DATA_PT_customdata",
+              "OBJECT_PT_transform", "OBJECT_PT_relations", "OBJECT_PT_visibility"}
+    return [getattr(bpy.types, n) for n in wanted if hasattr(bpy.types, n)]
+
+
+def register():
+    for panel in compatible_panels():
+        if hasattr(panel, "COMPAT_ENGINES"):
+            panel.COMPAT_ENGINES.add(PhoticRenderEngine.bl_idname)
+
+
+def unregister():
+    for panel in compatible_panels():
+        if hasattr(panel, "COMPAT_ENGINES"):
+            panel.COMPAT_ENGINES.discard(PhoticRenderEngine.bl_idname)

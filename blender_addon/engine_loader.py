@@ -1,0 +1,78 @@
+"""Import of the Photic engine, late and at most once.
+
+The add-on registers even when the engine cannot be imported (no compiled core for this
+Python, a missing wheel): the panels then show the reason instead of the settings. Heavy
+imports stay out of ``register`` so Blender starts quickly (as Cycles does with its core).
+
+Where the engine comes from, first found wins:
+
+1. already importable (``bpy`` in the same virtual environment, or an extension's wheels);
+2. ``site_packages.txt`` beside this file, written by ``scripts/install_blender_addon.py`` for a
+   distribution Blender: one site-packages directory per line, added with ``site.addsitedir``
+   (so editable installs' ``.pth`` hooks work);
+3. the ``PHOTIC_SITE_PACKAGES`` environment variable (``os.pathsep``-separated directories).
+
+Directories are appended, so Blender's own modules keep precedence. The engine never imports
+embreex; if it did, a distribution Blender linking the system Embree would need
+``RTLD_DEEPBIND`` for it, and that flag must not be used for the engine's core itself (with it,
+the core's C++ runtime symbols bind privately and Blender 3.4 aborts at exit).
+"""
+from __future__ import annotations
+
+import importlib
+import os
+import site
+import sys
+import traceback
+from pathlib import Path
+
+_engine = None
+_error: str | None = None
+
+
+def _candidate_dirs() -> list[str]:
+    dirs = []
+    listing = Path(__file__).with_name("site_packages.txt")
+    if listing.is_file():
+        dirs += [line.strip() for line in listing.read_text().splitlines() if line.strip()]
+    dirs += [d for d in os.environ.get("PHOTIC_SITE_PACKAGES", "").split(os.pathsep) if d]
+    return dirs
+
+
+def load_engine():
+    """The ``photic`` package with its compiled core, or None (see ``engine_error``)."""
+    global _engine, _error
+    if _engine is not None or _error is not None:
+        return _engine
+    try:
+        try:
+            importlib.import_module("photic._core")
+        except ImportError:
+            for d in _candidate_dirs():
+                if Path(d).is_dir() and d not in sys.path:
+                    site.addsitedir(d)
+            importlib.invalidate_caches()
+            importlib.import_module("photic._core")
+        for name in ("photic.scene", "photic.render", "photic.output"):
+            importlib.import_module(name)
+        _engine = sys.modules["photic"]
+    except Exception as exc:  # any failure: keep Blender running and say why
+        _error = (f"the Photic engine could not be imported ({type(exc).__name__}: {exc}). "
+                  f"Install the Photic extension with its wheels, or list the site-packages "
+                  f"directory holding 'photic' in {Path(__file__).with_name('site_packages.txt')} "
+                  f"or in PHOTIC_SITE_PACKAGES.")
+        traceback.print_exc()
+    return _engine
+
+
+def engine_error() -> str | None:
+    """Why the engine is unavailable (None when it loaded or was not tried yet)."""
+    return _error
+
+
+def require_engine():
+    """The engine, or a RuntimeError carrying the reason."""
+    engine = load_engine()
+    if engine is None:
+        raise RuntimeError(_error)
+    return engine

@@ -1,0 +1,248 @@
+"""Final renders (F12, ``blender -b ... -f``, ``bpy.ops.render.render``).
+
+The engine renders in a background thread; ``FinalRender.run`` polls it every few hundredths
+of a second: Esc (``test_break``) cancels it, the current estimate streams into the render
+view with ``update_result`` twice a second, progress and stats (samples, rays/s, estimated
+error) are reported, and the partial image of a cancelled render is kept. It needs only the
+RenderEngine methods it calls, so tests drive it with a stand-in engine as well as through
+Blender.
+"""
+from __future__ import annotations
+
+import threading
+import time
+import traceback
+from pathlib import Path
+
+import numpy as np
+
+from . import bands as bandmod
+from .engine_loader import load_engine, engine_error
+from .export import ExportCancelled, ExportError, export_scene
+
+#: Render passes besides Combined: (Blender pass name, engine component).
+COMPONENT_PASSES = (("Photic Beam Surface", "beam_surface"),
+                    ("Photic Beam Volume", "beam_volume"),
+                    ("Photic Path", "path"))
+VARIANCE_PASS = "Photic Variance"
+PASS_NAMES = tuple(p for p, _ in COMPONENT_PASSES) + (VARIANCE_PASS,)
+UPDATE_INTERVAL_S = 0.5
+POLL_S = 0.02
+
+#: Radiometer results of the last render per scene name (shown in the Render panel), and a
+#: summary of the last render (updates streamed, cancel latency) for tests and the console.
+LAST_RADIOMETERS: dict = {}
+LAST_RENDER: dict = {}
+
+
+def set_rect(render_pass, image: np.ndarray) -> None:
+    """Write an (H, W, C) top-row-first image into a render pass (bottom row first).
+
+    Blender 3.x takes an (H*W, C) array, Blender 4.x and 5.x a flat one."""
+    h, w, c = image.shape
+    rows = np.ascontiguousarray(image[::-1].reshape(h * w, c), dtype=np.float32)
+    try:
+        render_pass.rect = rows.ravel()
+    except (TypeError, ValueError):
+        render_pass.rect = rows
+
+
+def image_passes(image, bands) -> dict:
+    """The Combined, component and variance passes of an engine ``ImageResult``."""
+    out = {"Combined": bandmod.bands_to_rgba(image.mean, bands)}
+    for name, comp in COMPONENT_PASSES:
+        if comp in image.components:
+            out[name] = bandmod.bands_to_rgba(image.components[comp], bands)[:, :, :3]
+    out[VARIANCE_PASS] = bandmod.bands_to_rgba(image.variance, bands)[:, :, :3]
+    return out
+
+
+def median_relative_error(image) -> float:
+    """Median over lit pixels of standard error / mean (in the display bands)."""
+    mean, var = image.mean, image.variance
+    lit = mean > 0
+    if not np.any(lit):
+        return float("nan")
+    return float(np.median(np.sqrt(var[lit]) / mean[lit]))
+
+
+def radiometer_summary(result) -> list[dict]:
+    """Rows for the Render panel: one per radiometer with values per band."""
+    return [{"name": r.name, "quantity": r.quantity, "medium": r.medium,
+             "value": r.mean[0].tolist(), "stderr": r.stderr[0].tolist(),
+             "bins": r.mean.shape[0], "units": r.units} for r in result.radiometers]
+
+
+def table_stem(bscene) -> tuple[Path, str]:
+    """Directory and file stem of this frame's render output (tables go beside it)."""
+    path = Path(bscene.render.frame_path(frame=bscene.frame_current))
+    return path.parent, path.stem
+
+
+class FinalRender:
+    """One final render of a depsgraph by a RenderEngine (or a stand-in with its methods)."""
+
+    def __init__(self, engine, depsgraph):
+        self.engine = engine
+        self.depsgraph = depsgraph
+        self.summary = {"updates": 0, "update_times": [], "cancelled": False,
+                        "cancel_latency_s": None, "tables": [], "error": None}
+
+    # -- reporting ---------------------------------------------------------------------------
+    def fail(self, message: str) -> None:
+        self.summary["error"] = message
+        print(f"Photic: {message}")
+        self.engine.report({"ERROR"}, message)
+        if hasattr(self.engine, "error_set"):
+            self.engine.error_set(message)
+
+    def stats(self, text: str) -> None:
+        self.engine.update_stats("", f"Photic | {text}")
+
+    # -- the render --------------------------------------------------------------------------
+    def run(self) -> dict:
+        global LAST_RENDER
+        t0 = time.perf_counter()
+        try:
+            self._run(t0)
+        except Exception as exc:  # never a crash of Blender: report and keep running
+            traceback.print_exc()
+            self.fail(f"internal error: {type(exc).__name__}: {exc} (details in the console)")
+        self.summary["time_s"] = time.perf_counter() - t0
+        LAST_RENDER = dict(self.summary)
+        return self.summary
+
+    def _run(self, t0: float) -> None:
+        photic = load_engine()
+        if photic is None:
+            self.fail(engine_error())
+            return
+        engine = self.engine
+        bscene = self.depsgraph.scene_eval
+        self.stats("exporting scene")
+
+        def export_progress(fraction, text):
+            engine.update_progress(0.02 * fraction)
+            self.stats(text)
+
+        try:
+            scene, info = export_scene(self.depsgraph, photic, progress=export_progress,
+                                       test_break=engine.test_break)
+        except ExportCancelled:
+            self.summary["cancelled"] = True
+            return
+        except ExportError as exc:
+            self.fail(str(exc))
+            return
+        except photic.scene.SceneError as exc:
+            self.fail(str(exc))
+            return
+        for w in info.warnings:
+            engine.report({"WARNING"}, w)
+        self.summary["export_s"] = info.time_s
+        self.summary["triangles"] = info.triangles
+        bands = [(b.name, b.center_nm, b.width_nm) for b in scene.bands]
+        camera = scene.cameras[0] if scene.cameras else None
+        width, height = camera.resolution if camera else (1, 1)
+
+        try:
+            renderer = photic.render.Renderer(scene)
+        except photic.scene.SceneError as exc:
+            self.fail(str(exc))
+            return
+        holder: dict = {}
+
+        def work():
+            try:
+                holder["result"] = renderer.run()
+            except Exception as exc:  # reported by the polling loop
+                holder["error"] = exc
+                traceback.print_exc()
+
+        thread = threading.Thread(target=work, name="photic-render", daemon=True)
+        result = engine.begin_result(0, 0, width, height)
+        cancel_at = None
+        try:
+            thread.start()
+            last_update, last_samples = 0.0, 0
+            while thread.is_alive():
+                thread.join(POLL_S)
+                now = time.perf_counter()
+                if cancel_at is None and engine.test_break():
+                    cancel_at = now
+                    renderer.cancel()
+                    self.stats("cancelling")
+                if cancel_at is None and now - last_update >= UPDATE_INTERVAL_S:
+                    snap = renderer.snapshot(camera.name) if camera is not None else None
+                    if snap is not None and snap.samples != last_samples:
+                        last_samples = snap.samples
+                        self._write(result, snap, bands)
+                        engine.update_result(result)
+                        self.summary["updates"] += 1
+                        self.summary["update_times"].append(now - t0)
+                    last_update = now
+                    self._report_progress(renderer, snap, now)
+        finally:
+            if thread.is_alive():  # an exception in the loop: stop the worker first
+                renderer.cancel()
+            thread.join()
+            if cancel_at is not None:
+                self.summary["cancelled"] = True
+                self.summary["cancel_latency_s"] = time.perf_counter() - cancel_at
+            final = holder.get("result")
+            if final is not None and camera is not None and camera.name in final.images:
+                self._write(result, final.images[camera.name], bands)
+            engine.end_result(result)
+        if "error" in holder:
+            self.fail(f"render failed: {holder['error']}")
+            return
+        final = holder["result"]
+        self.summary["samples"] = final.images[camera.name].samples if camera else 0
+        self.summary["stats"] = final.stats
+        self._radiometers(photic, final, bscene)
+        engine.update_progress(1.0)
+        self.stats(f"{'cancelled, ' if final.cancelled else ''}{self.summary['samples']} "
+                   f"samples in {final.stats['time_s']:.1f} s, "
+                   f"{final.stats['segments_per_s'] / 1e6:.2f} M rays/s")
+
+    def _write(self, result, image, bands) -> None:
+        layer = result.layers[0]
+        for name, pixels in image_passes(image, bands).items():
+            p = layer.passes.get(name) if hasattr(layer.passes, "get") else None
+            if p is None:
+                try:
+                    p = layer.passes[name]
+                except (KeyError, IndexError):
+                    continue
+            set_rect(p, pixels)
+
+    def _report_progress(self, renderer, snap, now) -> None:
+        self.engine.update_progress(0.02 + 0.98 * renderer.progress)
+        elapsed = now - (renderer.t_start or now)
+        rays = renderer.counters["segments"] / elapsed if elapsed > 0 else 0.0
+        text = f"{rays / 1e6:.2f} M rays/s"
+        if snap is not None:
+            err = median_relative_error(snap)
+            text = f"sample {snap.samples}/{renderer.samples} | {text} | error {100 * err:.1f}% " \
+                   f"(median pixel, 1 sigma)"
+        remaining = elapsed * (1 - renderer.progress) / renderer.progress if renderer.progress > 0 else None
+        if remaining is not None:
+            text += f" | {remaining:.0f} s left"
+        self.stats(text)
+
+    def _radiometers(self, photic, final, bscene) -> None:
+        if not final.radiometers:
+            return
+        LAST_RADIOMETERS[bscene.name] = {"bands": [b.name for b in final.bands],
+                                         "rows": radiometer_summary(final),
+                                         "cancelled": final.cancelled}
+        if not bscene.photic.write_tables:
+            return
+        out_dir, stem = table_stem(bscene)
+        try:
+            paths = photic.output.write_radiometer_tables(out_dir, final, f"{stem}")
+        except OSError as exc:
+            self.engine.report({"WARNING"}, f"radiometer tables not written to {out_dir}: {exc}")
+            return
+        self.summary["tables"] = [str(p) for p in paths]
+        print(f"Photic: radiometer tables {paths[0]} and {paths[1]}")

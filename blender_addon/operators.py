@@ -1,0 +1,56 @@
+"""Operators: export the Photic scene description of the current view layer."""
+from __future__ import annotations
+
+import bpy
+from bpy.props import StringProperty
+
+from .engine_loader import engine_error, load_engine
+from .export import ExportCancelled, ExportError, export_scene
+
+
+class PHOTIC_OT_export_scene(bpy.types.Operator):
+    """Write the scene as Photic sees it (JSON scene file for `photic render`)"""
+
+    bl_idname = "photic.export_scene"
+    bl_label = "Export Photic Scene (.json)"
+    bl_options = {"REGISTER"}
+
+    filepath: StringProperty(subtype="FILE_PATH", default="//photic_scene.json",
+                             description="Where to write the scene file")
+
+    def execute(self, context):
+        photic = load_engine()
+        if photic is None:
+            self.report({"ERROR"}, engine_error())
+            return {"CANCELLED"}
+        depsgraph = context.evaluated_depsgraph_get()
+        try:
+            scene, info = export_scene(depsgraph, photic)
+        except (ExportError, ExportCancelled, photic.scene.SceneError) as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        for w in info.warnings:
+            self.report({"WARNING"}, w)
+        path = bpy.path.abspath(self.filepath)
+        photic.scene.save_scene(scene, path)
+        self.report({"INFO"}, f"Photic scene written to {path} ({info.triangles} triangles)")
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        context.window_manager.fileselect_add(self)
+        return {"RUNNING_MODAL"}
+
+
+def menu_export(self, context):
+    self.layout.operator(PHOTIC_OT_export_scene.bl_idname, text="Photic Scene (.json)")
+
+
+classes = (PHOTIC_OT_export_scene,)
+
+
+def register():
+    bpy.types.TOPBAR_MT_file_export.append(menu_export)
+
+
+def unregister():
+    bpy.types.TOPBAR_MT_file_export.remove(menu_export)

@@ -1,0 +1,269 @@
+"""Photic's settings on Blender data: ``Object.photic``, ``Material.photic``, ``World.photic``
+and ``Scene.photic``.
+
+Every property carries its unit, range and meaning; the export (``export.py``) checks what a
+range cannot (per-band lists, NaN, closed water meshes) and names the property when it fails.
+Each group attaches itself to its ID type in ``register`` and removes itself in ``unregister``.
+"""
+from __future__ import annotations
+
+import math
+
+import bpy
+from bpy.props import (BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty,
+                       IntProperty, PointerProperty, StringProperty)
+
+ROLES = [
+    ("NONE", "None", "An ordinary object: opaque, Lambertian with its material's base colour"),
+    ("WATER_BODY", "Water Body", "A closed mesh filled with water (a pool, a tank, a lake's volume)"),
+    ("WATER_SURFACE", "Water Surface", "The surface of an ocean: water below it to the bottom "
+                                       "depth (or without end), air above"),
+    ("RADIOMETER", "Radiometer", "A point instrument at the object's origin measuring one quantity"),
+    ("RADIOMETER_ARRAY", "Radiometer Array", "Radiometers laid out along a line, on a grid or at "
+                                             "the mesh's vertices, each measuring the chosen "
+                                             "quantities"),
+]
+
+QUANTITIES = [
+    ("Ed", "Ed", "Downwelling plane irradiance (W m^-2), collector facing up"),
+    ("Eu", "Eu", "Upwelling plane irradiance (W m^-2), collector facing down"),
+    ("Eo", "Eo", "Scalar irradiance (W m^-2), light from all directions"),
+    ("Eod", "Eod", "Downwelling scalar irradiance (W m^-2)"),
+    ("Eou", "Eou", "Upwelling scalar irradiance (W m^-2)"),
+    ("radiance", "Radiance", "Radiance (W m^-2 sr^-1) seen in a cone along the object's -Z axis"),
+    ("radiance_distribution", "Radiance Distribution",
+     "Radiance (W m^-2 sr^-1) in polar x azimuth bins over the full sphere"),
+]
+
+PHASE_FUNCTIONS = [
+    ("petzold", "Petzold (average particle)", "Petzold's average-particle phase function "
+                                              "(San Diego harbour, tabulated), backscatter 1.83%"),
+    ("fournier_forand", "Fournier-Forand", "Fournier-Forand particle phase function set by its "
+                                           "backscatter fraction"),
+    ("henyey_greenstein", "Henyey-Greenstein", "One-parameter analytic phase function with "
+                                               "asymmetry g"),
+    ("pure_water", "Pure water", "Rayleigh-like scattering of water molecules, "
+                                 "1 + 0.835 cos^2"),
+    ("isotropic", "Isotropic", "Equal scattering into every direction"),
+]
+
+
+def _deg(x: float) -> float:
+    return math.degrees(x)
+
+
+class PhoticObjectProperties(bpy.types.PropertyGroup):
+    """Photic role and parameters of an object."""
+
+    role: EnumProperty(name="Role", items=ROLES, default="NONE",
+                       description="What the object is to Photic")
+
+    # Water (bodies and surfaces)
+    absorption: FloatProperty(
+        name="Absorption a", default=0.1, min=0.0, soft_max=10.0, precision=4,
+        description="Absorption coefficient a (m^-1), the same in every band unless "
+                    "'Absorption per band' is given")
+    absorption_bands: StringProperty(
+        name="Absorption per Band",
+        description="Absorption coefficients a (m^-1), one per band in the scene's band order, "
+                    "separated by commas; empty: use 'Absorption a' in every band")
+    scattering: FloatProperty(
+        name="Scattering b", default=0.2, min=0.0, soft_max=10.0, precision=4,
+        description="Scattering coefficient b (m^-1), the same in every band unless "
+                    "'Scattering per band' is given")
+    scattering_bands: StringProperty(
+        name="Scattering per Band",
+        description="Scattering coefficients b (m^-1), one per band, separated by commas; "
+                    "empty: use 'Scattering b' in every band")
+    phase_function: EnumProperty(name="Phase Function", items=PHASE_FUNCTIONS,
+                                 default="petzold",
+                                 description="Angular distribution of scattered light")
+    hg_g: FloatProperty(name="Asymmetry g", default=0.9, min=-0.99, max=0.99, precision=3,
+                        description="Henyey-Greenstein mean cosine of scattering "
+                                    "(dimensionless), in [-0.99, 0.99]")
+    ff_backscatter: FloatProperty(
+        name="Backscatter Fraction", default=0.0183, min=0.0001, max=0.5, precision=4,
+        description="Fournier-Forand backscatter fraction b_b/b (dimensionless), "
+                    "in [0.0001, 0.5]")
+    ior: FloatProperty(name="Refractive Index", default=1.34, min=1.0, max=2.0, precision=3,
+                       description="Refractive index of the water relative to air "
+                                   "(dimensionless), in [1, 2]")
+    surface_shape: EnumProperty(
+        name="Surface Shape", default="FLAT",
+        items=[("FLAT", "Flat", "A flat sea at the height of the object's origin, without end"),
+               ("MESH", "Mesh Patch", "The evaluated mesh as a height field, repeated without "
+                                      "end with its x and y extent as the period (the patch "
+                                      "must tile seamlessly)")],
+        description="How the water surface is shaped")
+    use_bottom: BoolProperty(name="Bottom", default=False,
+                             description="A flat, opaque sea floor below the water surface")
+    bottom_depth: FloatProperty(name="Bottom Depth", default=10.0, min=0.001, soft_max=1000.0,
+                                unit="LENGTH", description="Depth of the sea floor below the "
+                                                           "mean water surface (m), > 0")
+    bottom_material: PointerProperty(type=bpy.types.Material, name="Bottom Material",
+                                     description="Material of the sea floor (its base colour "
+                                                 "or Photic reflectance); none: grey 0.18")
+
+    # Radiometers
+    quantity: EnumProperty(name="Quantity", items=QUANTITIES, default="Ed",
+                           description="What the radiometer measures")
+    quantities: EnumProperty(name="Quantities", items=QUANTITIES, options={"ENUM_FLAG"},
+                             default={"Ed", "Eu", "Eo"},
+                             description="What each radiometer of the array measures")
+    half_angle: FloatProperty(name="Cap Half-Angle", subtype="ANGLE", default=math.radians(12.9),
+                              min=math.radians(0.01), max=math.radians(90.0),
+                              description="Half-angle of a radiance meter's field of view "
+                                          "(degrees), in (0, 90]")
+    polar_bins: IntProperty(name="Polar Bins", default=18, min=1, max=180,
+                            description="Radiance distribution: bins in zenith angle over 180 "
+                                        "degrees")
+    azimuth_bins: IntProperty(name="Azimuth Bins", default=24, min=1, max=360,
+                              description="Radiance distribution: bins in azimuth over 360 "
+                                          "degrees")
+    array_layout: EnumProperty(
+        name="Layout", default="LINE",
+        items=[("LINE", "Line", "Along the object's local -Z axis from its origin (a profile)"),
+               ("GRID", "Grid", "A grid in the object's local XY plane centred on its origin"),
+               ("VERTICES", "Mesh Vertices", "At the vertices of the object's evaluated mesh")],
+        description="Where the radiometers of the array are")
+    array_count: IntProperty(name="Count", default=10, min=0, max=100000,
+                             description="Line: number of radiometers; grid: per side")
+    array_spacing: FloatProperty(name="Spacing", default=1.0, min=0.0, soft_max=100.0,
+                                 unit="LENGTH", description="Distance between neighbouring "
+                                                            "radiometers (m), in the object's "
+                                                            "scale")
+
+    @classmethod
+    def register(cls):
+        bpy.types.Object.photic = PointerProperty(type=cls, name="Photic",
+                                                  description="Photic settings of the object")
+
+    @classmethod
+    def unregister(cls):
+        del bpy.types.Object.photic
+
+
+class PhoticMaterialProperties(bpy.types.PropertyGroup):
+    """Optional Photic reflectance overriding the Principled BSDF base colour."""
+
+    use_override: BoolProperty(name="Photic Reflectance", default=False,
+                               description="Use the reflectance below instead of the base "
+                                           "colour of the Principled BSDF")
+    reflectance: FloatProperty(name="Reflectance", default=0.2, min=0.0, max=1.0,
+                               description="Lambertian reflectance (dimensionless) in every "
+                                           "band, unless given per band")
+    reflectance_bands: StringProperty(name="Reflectance per Band",
+                                      description="Lambertian reflectances in [0, 1], one per "
+                                                  "band, separated by commas")
+
+    @classmethod
+    def register(cls):
+        bpy.types.Material.photic = PointerProperty(type=cls, name="Photic")
+
+    @classmethod
+    def unregister(cls):
+        del bpy.types.Material.photic
+
+
+class PhoticWorldProperties(bpy.types.PropertyGroup):
+    """The sky."""
+
+    sky_model: EnumProperty(
+        name="Sky", default="FROM_WORLD",
+        items=[("FROM_WORLD", "From World Colour", "Uniform sky with the radiance of the world's "
+                                                    "background colour times its strength"),
+               ("UNIFORM", "Uniform", "The same radiance L0 from every direction above the "
+                                      "horizon"),
+               ("CARDIOIDAL", "Cardioidal", "Overcast sky, L = L0 (1 + 2 cos zenith angle)"),
+               ("BLACK", "Black", "No sky light (sun only)")],
+        description="Radiance of the sky over the upper hemisphere")
+    radiance: FloatProperty(name="Radiance L0", default=0.1, min=0.0, soft_max=100.0,
+                            description="Sky radiance scale L0 (W m^-2 sr^-1 per unit of the "
+                                        "band's spectrum)")
+    color: FloatVectorProperty(name="Colour", subtype="COLOR", size=3, min=0.0, max=1.0,
+                               default=(1.0, 1.0, 1.0),
+                               description="Relative sky radiance per colour (dimensionless)")
+
+    @classmethod
+    def register(cls):
+        bpy.types.World.photic = PointerProperty(type=cls, name="Photic")
+
+    @classmethod
+    def unregister(cls):
+        del bpy.types.World.photic
+
+
+class PhoticSceneProperties(bpy.types.PropertyGroup):
+    """Render settings."""
+
+    integrator: EnumProperty(
+        name="Integrator", default="AUTO",
+        items=[("AUTO", "Automatic", "Hybrid when there is a sun, else path tracing"),
+               ("HYBRID", "Hybrid (beams + paths)", "The refracted sun as beams (caustics, "
+                                                     "sun shafts), path tracing for sky light "
+                                                     "and multiple scattering"),
+               ("PATH", "Path Tracing", "Pure volumetric path tracing (the unbiased baseline)")],
+        description="How light is transported")
+    samples: IntProperty(name="Samples", default=16, min=1, max=1000000, soft_max=4096,
+                         description="Samples per pixel of the final render")
+    viewport_samples: IntProperty(name="Viewport Samples", default=32, min=1, max=100000,
+                                  description="Samples per pixel in the viewport")
+    viewport_scale: IntProperty(name="Viewport Resolution", default=50, min=5, max=100,
+                                subtype="PERCENTAGE",
+                                description="Viewport render resolution (percent of the region)")
+    radiometer_samples: IntProperty(name="Radiometer Samples", default=65536, min=1,
+                                    max=2_000_000_000,
+                                    description="Samples per radiometer (the standard error "
+                                                "falls as 1/sqrt of this)")
+    seed: IntProperty(name="Seed", default=0, min=0, max=2**31 - 1,
+                      description="Random seed: the same seed gives the same result bit for "
+                                  "bit on any number of threads")
+    threads: IntProperty(name="Threads", default=0, min=0, max=1024,
+                         description="CPU threads (0: all cores)")
+    max_depth: IntProperty(name="Max Depth", default=256, min=1, max=100000,
+                           description="Largest number of scattering or reflection events of "
+                                       "a path")
+    bands: EnumProperty(
+        name="Bands", default="RGB",
+        items=[("RGB", "RGB (620, 550, 460 nm)", "Three bands shown as red, green and blue"),
+               ("SINGLE", "Single Band", "One band, shown as grey"),
+               ("CUSTOM", "Custom", "A list of bands 'centre:width' in nm")],
+        description="Spectral bands rendered (per-band values in radiometer tables)")
+    band_center_nm: FloatProperty(name="Centre", default=550.0, min=200.0, max=3000.0,
+                                  description="Centre wavelength of the single band (nm)")
+    band_width_nm: FloatProperty(name="Width", default=10.0, min=0.001, max=1000.0,
+                                 description="Width of the single band (nm)")
+    custom_bands: StringProperty(name="Band List", default="450:20, 500:20, 550:20, 600:20",
+                                 description="Bands as 'centre_nm:width_nm' separated by "
+                                             "commas, e.g. '412:10, 443:10, 490:10'")
+    forward_cone: EnumProperty(
+        name="Forward Cone", default="AUTO",
+        items=[("AUTO", "Automatic", "3 degrees in optically deep water (c x depth > 10), "
+                                     "else none"),
+               ("ANGLE", "Angle", "Scattering within the given half-angle stays in the beams")],
+        description="Forward scattering kept within a narrow cone around the beams")
+    forward_cone_angle: FloatProperty(name="Cone Half-Angle", subtype="ANGLE", default=0.0,
+                                      min=0.0, max=math.radians(30.0),
+                                      description="Half-angle of the forward-scattering cone "
+                                                  "(degrees), in [0, 30]; 0: none")
+    beam_max_level: IntProperty(name="Beam Refinement", default=5, min=0, max=12,
+                                description="Levels of adaptive subdivision of a surface "
+                                            "triangle's beam where its rays disagree (each "
+                                            "level halves the beam cell size)")
+    write_tables: BoolProperty(name="Radiometer Tables", default=True,
+                               description="Write radiometer values and standard errors as CSV "
+                                           "and JSON next to the render output")
+    last_results: StringProperty(name="Last Radiometer Results", options={"HIDDEN"},
+                                 description="Radiometer results of the last render (JSON)")
+
+    @classmethod
+    def register(cls):
+        bpy.types.Scene.photic = PointerProperty(type=cls, name="Photic")
+
+    @classmethod
+    def unregister(cls):
+        del bpy.types.Scene.photic
+
+
+classes = (PhoticObjectProperties, PhoticMaterialProperties, PhoticWorldProperties,
+           PhoticSceneProperties)

@@ -1,0 +1,213 @@
+"""Panels in the Render, Object, Material and World properties."""
+from __future__ import annotations
+
+import bpy
+
+from . import final_render
+from .engine_loader import engine_error, load_engine
+
+
+class PhoticPanel:
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    COMPAT_ENGINES = {"PHOTIC"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+
+def _engine_status(layout) -> None:
+    if load_engine() is None:
+        box = layout.box()
+        box.alert = True
+        box.label(text="Photic engine unavailable", icon="ERROR")
+        msg = engine_error() or ""
+        for i in range(0, min(len(msg), 600), 60):
+            box.label(text=msg[i:i + 60])
+
+
+class PHOTIC_PT_render(PhoticPanel, bpy.types.Panel):
+    bl_label = "Photic"
+    bl_context = "render"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        p = context.scene.photic
+        _engine_status(layout)
+        layout.prop(p, "integrator")
+        col = layout.column(align=True)
+        col.prop(p, "samples")
+        col.prop(p, "viewport_samples")
+        col.prop(p, "viewport_scale")
+        layout.prop(p, "radiometer_samples")
+        col = layout.column(align=True)
+        col.prop(p, "seed")
+        col.prop(p, "threads")
+        col.prop(p, "max_depth")
+
+
+class PHOTIC_PT_bands(PhoticPanel, bpy.types.Panel):
+    bl_label = "Spectral Bands"
+    bl_context = "render"
+    bl_parent_id = "PHOTIC_PT_render"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        p = context.scene.photic
+        layout.prop(p, "bands")
+        if p.bands == "SINGLE":
+            layout.prop(p, "band_center_nm")
+            layout.prop(p, "band_width_nm")
+        elif p.bands == "CUSTOM":
+            layout.prop(p, "custom_bands")
+
+
+class PHOTIC_PT_beams(PhoticPanel, bpy.types.Panel):
+    bl_label = "Beams and Forward Scattering"
+    bl_context = "render"
+    bl_parent_id = "PHOTIC_PT_render"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        p = context.scene.photic
+        layout.prop(p, "forward_cone")
+        row = layout.row()
+        row.active = p.forward_cone == "ANGLE"
+        row.prop(p, "forward_cone_angle")
+        layout.prop(p, "beam_max_level")
+        layout.prop(p, "write_tables")
+
+
+class PHOTIC_PT_radiometer_results(PhoticPanel, bpy.types.Panel):
+    bl_label = "Radiometer Results"
+    bl_context = "render"
+    bl_parent_id = "PHOTIC_PT_render"
+
+    def draw(self, context):
+        layout = self.layout
+        last = final_render.LAST_RADIOMETERS.get(context.scene.name)
+        if not last:
+            layout.label(text="No radiometer results yet (render with F12)")
+            return
+        if last["cancelled"]:
+            layout.label(text="Render was cancelled: partial results", icon="INFO")
+        layout.label(text="Bands (nm): " + ", ".join(last["bands"]))
+        for row in last["rows"][:40]:
+            values = ", ".join(f"{v:.4g}±{e:.2g}" for v, e in zip(row["value"], row["stderr"]))
+            extra = f" ({row['bins']} bins, first shown)" if row["bins"] > 1 else ""
+            layout.label(text=f"{row['name']} {row['quantity']} [{row['medium']}]: {values}{extra}")
+        if len(last["rows"]) > 40:
+            layout.label(text=f"... {len(last['rows']) - 40} more in the radiometer tables")
+
+
+class PHOTIC_PT_object(PhoticPanel, bpy.types.Panel):
+    bl_label = "Photic"
+    bl_context = "object"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.object is not None and \
+            context.object.type in {"MESH", "EMPTY", "CURVE", "SURFACE", "META", "FONT"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        p = context.object.photic
+        layout.prop(p, "role")
+        if p.role in {"WATER_BODY", "WATER_SURFACE"}:
+            col = layout.column(align=True)
+            col.prop(p, "absorption")
+            col.prop(p, "absorption_bands")
+            col = layout.column(align=True)
+            col.prop(p, "scattering")
+            col.prop(p, "scattering_bands")
+            layout.prop(p, "phase_function")
+            if p.phase_function == "henyey_greenstein":
+                layout.prop(p, "hg_g")
+            elif p.phase_function == "fournier_forand":
+                layout.prop(p, "ff_backscatter")
+            layout.prop(p, "ior")
+        if p.role == "WATER_SURFACE":
+            layout.prop(p, "surface_shape")
+            layout.prop(p, "use_bottom")
+            col = layout.column()
+            col.active = p.use_bottom
+            col.prop(p, "bottom_depth")
+            col.prop(p, "bottom_material")
+        elif p.role == "RADIOMETER":
+            layout.prop(p, "quantity")
+            if p.quantity == "radiance":
+                layout.prop(p, "half_angle")
+            elif p.quantity == "radiance_distribution":
+                layout.prop(p, "polar_bins")
+                layout.prop(p, "azimuth_bins")
+        elif p.role == "RADIOMETER_ARRAY":
+            layout.prop(p, "quantities")
+            layout.prop(p, "array_layout")
+            if p.array_layout != "VERTICES":
+                layout.prop(p, "array_count")
+                layout.prop(p, "array_spacing")
+            if "radiance" in p.quantities:
+                layout.prop(p, "half_angle")
+
+
+class PHOTIC_PT_material(PhoticPanel, bpy.types.Panel):
+    bl_label = "Photic Surface"
+    bl_context = "material"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.material is not None
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        mat = context.material
+        p = mat.photic
+        layout.prop(p, "use_override")
+        if p.use_override:
+            layout.prop(p, "reflectance")
+            layout.prop(p, "reflectance_bands")
+        else:
+            layout.label(text="Lambertian, reflectance = Principled BSDF base colour")
+            tree = mat.node_tree if mat.use_nodes else None
+            node = next((n for n in tree.nodes if n.type == "BSDF_PRINCIPLED"), None) if tree else None
+            if node is not None:
+                layout.prop(node.inputs["Base Color"], "default_value", text="Base Color")
+            else:
+                layout.prop(mat, "diffuse_color", text="Color")
+
+
+class PHOTIC_PT_world(PhoticPanel, bpy.types.Panel):
+    bl_label = "Photic Sky"
+    bl_context = "world"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.world is not None
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        world = context.world
+        p = world.photic
+        layout.prop(p, "sky_model")
+        if p.sky_model in {"UNIFORM", "CARDIOIDAL"}:
+            layout.prop(p, "radiance")
+            layout.prop(p, "color")
+        elif p.sky_model == "FROM_WORLD":
+            tree = world.node_tree if world.use_nodes else None
+            node = next((n for n in tree.nodes if n.type == "BACKGROUND"), None) if tree else None
+            if node is not None:
+                layout.prop(node.inputs["Color"], "default_value", text="Color")
+                layout.prop(node.inputs["Strength"], "default_value", text="Radiance Scale")
+            else:
+                layout.prop(world, "color")
+
+
+classes = (PHOTIC_PT_render, PHOTIC_PT_bands, PHOTIC_PT_beams, PHOTIC_PT_radiometer_results,
+           PHOTIC_PT_object, PHOTIC_PT_material, PHOTIC_PT_world)

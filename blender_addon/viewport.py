@@ -1,0 +1,122 @@
+"""Rendered viewport shading: a progressive Photic render of the 3D view, drawn with ``gpu``.
+
+The scene is exported again when the depsgraph reports an edit, and the render restarts when
+the scene or the view changes; the engine thread is cancelled first, so it never outlives an
+edit. Until the first pass arrives the previous image stays on screen.
+"""
+from __future__ import annotations
+
+import threading
+import traceback
+
+import numpy as np
+
+from . import bands as bandmod
+from .engine_loader import engine_error, load_engine
+from .export import ExportCancelled, ExportError, ViewCamera, export_scene
+
+
+def view_camera(context, width: int, height: int) -> ViewCamera:
+    """The engine camera of a 3D viewport (its view and projection matrices)."""
+    rv3d = context.region_data
+    world = np.array(rv3d.view_matrix.inverted(), float)
+    p = np.array(rv3d.window_matrix, float)
+    if rv3d.is_perspective:
+        return ViewCamera(False, world, 1.0 / p[0, 0], 2.0, (p[0, 2] / 2.0, p[1, 2] * p[0, 0] / (2.0 * p[1, 1])),
+                          0.0)
+    # Orthographic views see objects on both sides of the view point: start the rays behind.
+    back = 10.0 * max(1.0, float(rv3d.view_distance))
+    world[:3, 3] += world[:3, 2] * back
+    return ViewCamera(True, world, 1.0, 2.0 / p[0, 0], (-p[0, 3] / 2.0, -p[1, 3] * p[0, 0] / (2.0 * p[1, 1])),
+                      0.0)
+
+
+class ViewportRender:
+    """The viewport state of one RenderEngine instance."""
+
+    def __init__(self, engine):
+        self.engine = engine
+        self.renderer = None
+        self.thread = None
+        self.key = None
+        self.dirty = True
+        self.message = None
+        self.texture = None
+        self.texture_samples = -1
+        self.bands = None
+
+    def stop(self) -> None:
+        if self.renderer is not None:
+            self.renderer.cancel()
+        if self.thread is not None:
+            self.thread.join()
+        self.renderer = self.thread = None
+
+    def update(self, context, depsgraph) -> None:
+        """The scene changed: render again at the next draw."""
+        self.dirty = True
+
+    def _start(self, context, depsgraph, width, height) -> None:
+        self.stop()
+        self.message = None
+        photic = load_engine()
+        if photic is None:
+            self.message = engine_error()
+            return
+        try:
+            scene, _ = export_scene(depsgraph, photic, view_camera=view_camera(context, width, height),
+                                    resolution=(width, height))
+        except (ExportError, ExportCancelled, photic.scene.SceneError) as exc:
+            self.message = str(exc)
+            return
+        scene.radiometers, scene.radiometer_arrays = [], []  # final renders measure them
+        scene.settings.samples = int(depsgraph.scene_eval.photic.viewport_samples)
+        self.bands = [(b.name, b.center_nm, b.width_nm) for b in scene.bands]
+        try:
+            self.renderer = photic.render.Renderer(scene)
+        except photic.scene.SceneError as exc:
+            self.message = str(exc)
+            return
+
+        def work(renderer=self.renderer):
+            try:
+                renderer.run()
+            except Exception:
+                traceback.print_exc()
+
+        self.thread = threading.Thread(target=work, name="photic-viewport", daemon=True)
+        self.thread.start()
+
+    def draw(self, context, depsgraph) -> None:
+        import gpu
+        from gpu_extras.presets import draw_texture_2d
+
+        region = context.region
+        scale = depsgraph.scene_eval.photic.viewport_scale / 100.0
+        width, height = max(1, int(region.width * scale)), max(1, int(region.height * scale))
+        rv3d = context.region_data
+        key = (tuple(map(tuple, rv3d.view_matrix)), tuple(map(tuple, rv3d.window_matrix)),
+               width, height)
+        if self.dirty or key != self.key:
+            self.key, self.dirty = key, False
+            self._start(context, depsgraph, width, height)
+            self.texture_samples = -1
+        if self.message:
+            self.engine.update_stats("", f"Photic: {self.message}")
+        renderer = self.renderer
+        if renderer is not None:
+            snap = renderer.snapshot("viewport")
+            if snap is not None and snap.samples != self.texture_samples:
+                rgba = bandmod.bands_to_rgba(snap.mean, self.bands)[::-1]
+                buf = gpu.types.Buffer("FLOAT", rgba.size, np.ascontiguousarray(rgba).ravel())
+                self.texture = gpu.types.GPUTexture((width, height), format="RGBA16F", data=buf)
+                self.texture_samples = snap.samples
+                self.engine.update_stats("", f"Photic: sample {snap.samples}/{renderer.samples}")
+            if self.thread is not None and self.thread.is_alive():
+                self.engine.tag_redraw()
+        if self.texture is not None:
+            gpu.state.blend_set("ALPHA_PREMULT")
+            self.engine.bind_display_space_shader(depsgraph.scene_eval)
+            draw_texture_2d(self.texture, (0, 0), region.width, region.height)
+            self.engine.unbind_display_space_shader()
+            gpu.state.blend_set("NONE")
