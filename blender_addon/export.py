@@ -391,12 +391,14 @@ class _Exporter:
         if not norm > 0:
             raise ExportError(owner, "Scale", "is zero: the sun has no direction")
         towards = towards / norm
-        zenith = math.degrees(math.acos(max(-1.0, min(1.0, towards[2]))))
+        # Blender keeps rotations in float32 (about 1e-5 degrees): angles are rounded to 1e-4
+        # degrees so that a sun set to 30 degrees exports as exactly 30.
+        zenith = round(math.degrees(math.acos(max(-1.0, min(1.0, towards[2])))), 4)
         if zenith >= 90.0:
             raise ExportError(owner, "Rotation", f"puts the sun below the horizon (zenith angle "
                                                  f"{zenith:.1f} degrees; the lamp shines along "
                                                  f"its -Z axis and must point downwards)")
-        azimuth = math.degrees(math.atan2(towards[1], towards[0])) % 360.0
+        azimuth = round(math.degrees(math.atan2(towards[1], towards[0])), 4) % 360.0 + 0.0
         light = obj.data
         strength = float(light.energy)
         if not (math.isfinite(strength) and strength >= 0):

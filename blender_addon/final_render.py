@@ -101,7 +101,6 @@ class FinalRender:
 
     # -- the render --------------------------------------------------------------------------
     def run(self) -> dict:
-        global LAST_RENDER
         t0 = time.perf_counter()
         try:
             self._run(t0)
@@ -109,7 +108,8 @@ class FinalRender:
             traceback.print_exc()
             self.fail(f"internal error: {type(exc).__name__}: {exc} (details in the console)")
         self.summary["time_s"] = time.perf_counter() - t0
-        LAST_RENDER = dict(self.summary)
+        LAST_RENDER.clear()
+        LAST_RENDER.update(self.summary)
         return self.summary
 
     def _run(self, t0: float) -> None:

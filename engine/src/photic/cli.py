@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import json
 import signal
 import sys
@@ -156,6 +157,58 @@ def cmd_problems(args) -> int:
     return 0 if all(r["passed"] for r in records) else 1
 
 
+def find_addon() -> Path:
+    """The Blender add-on's folder: $PHOTIC_ADDON_DIR, else the repository's blender_addon."""
+    env = os.environ.get("PHOTIC_ADDON_DIR")
+    candidates = [Path(env)] if env else []
+    candidates.append(Path(__file__).resolve().parents[3] / "blender_addon")
+    for c in candidates:
+        if (c / "__init__.py").is_file() and (c / "batch.py").is_file():
+            return c
+    raise FileNotFoundError("the Photic Blender add-on was not found: set PHOTIC_ADDON_DIR to its "
+                            "folder (blender_addon in the repository)")
+
+
+def load_addon():
+    """Import the add-on (as ``photic_blender``) with ``bpy``; the engine itself never does."""
+    import importlib.util
+
+    if "photic_blender" in sys.modules:
+        return sys.modules["photic_blender"]
+    folder = find_addon()
+    spec = importlib.util.spec_from_file_location("photic_blender", folder / "__init__.py",
+                                                  submodule_search_locations=[str(folder)])
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["photic_blender"] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def cmd_blend(args) -> int:
+    try:
+        import bpy  # noqa: F401  (Blender as a Python module)
+    except ImportError as exc:
+        print(f"photic blend: the bpy module is needed ({exc}); install it with "
+              f"'pip install bpy==5.0.*' (Python 3.11)", file=sys.stderr)
+        return 2
+    try:
+        load_addon()
+        from importlib import import_module
+        batch = import_module("photic_blender.batch")
+        summary = batch.render_blend(args.file, frame=args.frame, out_dir=args.out,
+                                     samples=args.samples, radiometer_samples=args.radiometer_samples,
+                                     seed=args.seed, threads=args.threads)
+    except (FileNotFoundError, RuntimeError) as exc:
+        print(f"photic blend: {exc}", file=sys.stderr)
+        return 2
+    print(f"image: {summary['image']}")
+    for t in summary.get("tables", []):
+        print(f"radiometer table: {t}")
+    if summary.get("cancelled"):
+        print("cancelled: the image holds the samples finished so far", file=sys.stderr)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="photic",
@@ -208,6 +261,21 @@ def build_parser() -> argparse.ArgumentParser:
     pr.add_argument("--json", action="store_true",
                     help="print records (problem, omega0, tau, quantity, value, stderr, reference, cv, seconds, passed)")
     pr.set_defaults(func=cmd_problems)
+    bl = sub.add_parser("blend", help="render a .blend file with the Photic Blender add-on (needs bpy)",
+                        description="Opens FILE.blend with the bpy module, renders one frame through "
+                                    "the Photic render engine of the add-on (as F12 does) and writes a "
+                                    "multilayer EXR <file>_<frame>.exr (Combined = the display bands "
+                                    "as RGB, and the Photic Beam Surface / Beam Volume / Path / "
+                                    "Variance passes) and, when the scene has radiometers, "
+                                    "<file>_<frame>_radiometers.csv/.json beside it.")
+    bl.add_argument("file", type=Path, help=".blend file")
+    bl.add_argument("--frame", type=int, default=None, help="frame to render (default: the file's current frame)")
+    bl.add_argument("--out", type=Path, default=Path("out"), help="output directory (default: out)")
+    bl.add_argument("--samples", type=int, default=None, help="samples per pixel (default: the file's)")
+    bl.add_argument("--radiometer-samples", type=int, default=None, help="samples per radiometer (default: the file's)")
+    bl.add_argument("--seed", type=int, default=None, help="random seed (default: the file's)")
+    bl.add_argument("--threads", type=int, default=None, help="threads, 0 = all cores (default: the file's)")
+    bl.set_defaults(func=cmd_blend)
     b = sub.add_parser("bench", help="throughput benchmark against raw Embree ray casting",
                        description="Measures the engine's path segments per second on two scenes "
                                    "(a 300k-triangle mesh in water; a flat ocean with a few objects) "

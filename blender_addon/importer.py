@@ -1,0 +1,214 @@
+"""A Photic scene description as Blender objects (File > Import > Photic Scene).
+
+The inverse of ``export``: what it builds exports back to the same scene, up to Blender's
+float32 storage of positions and angles (per-band coefficients and reflectances are kept
+exactly, as text). The example .blend files are made with it.
+"""
+from __future__ import annotations
+
+import math
+
+import bpy
+import numpy as np
+from mathutils import Matrix, Vector
+
+from . import bands as bandmod
+
+_ROLE_QUANTITY = {"radiance", "radiance_distribution"}
+
+
+def _numbers(values) -> str:
+    return ", ".join(repr(float(x)) for x in np.atleast_1d(values))
+
+
+def _rgb(values, bands):
+    """RGB for per-band values: (colour scaled to max 1, the max)."""
+    values = np.atleast_1d(np.asarray(values, float))
+    rgb = values[bandmod.display_indices(bands)] if len(values) > 1 else np.repeat(values, 3)
+    top = float(rgb.max())
+    return (tuple(rgb / top) if top > 0 else (1.0, 1.0, 1.0)), top
+
+
+def _look_matrix(position, direction, up) -> Matrix:
+    """World matrix of an object looking along ``direction`` (its -Z) with +Y towards ``up``."""
+    d = np.asarray(direction, float)
+    d = d / np.linalg.norm(d)
+    u = np.asarray(up, float)
+    if np.linalg.norm(np.cross(d, u)) < 1e-9:
+        u = np.array([0.0, 1.0, 0.0]) if abs(d[2]) > 0.9 else np.array([0.0, 0.0, 1.0])
+    right = np.cross(d, u)
+    right /= np.linalg.norm(right)
+    true_up = np.cross(right, d)
+    m = np.identity(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, true_up, -d, position
+    return Matrix(m.tolist())
+
+
+def _mesh_object(name, vertices, triangles, collection):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(np.asarray(vertices, float).tolist(), [], np.asarray(triangles).tolist())
+    mesh.update()
+    obj = bpy.data.objects.new(name, mesh)
+    collection.objects.link(obj)
+    return obj
+
+
+def _set_bands(props, bands) -> None:
+    rgb = [(c, w) for _, c, w in bands]
+    if len(bands) == 3 and rgb == [tuple(b) for b in bandmod.RGB_BANDS]:
+        props.bands = "RGB"
+    elif len(bands) == 1 and bands[0][0] == f"{bands[0][1]:g}":
+        props.bands = "SINGLE"
+        props.band_center_nm, props.band_width_nm = bands[0][1], bands[0][2]
+    else:
+        props.bands = "CUSTOM"
+        props.custom_bands = ", ".join(f"{c!r}:{w!r}" for _, c, w in bands)
+        if [b[0] for b in bands] != [f"{c:g}" for _, c, _ in bands]:
+            raise ValueError("band names other than their centre wavelength cannot be kept")
+
+
+def _material(m, bands):
+    mat = bpy.data.materials.new(m.name)
+    mat.use_nodes = True
+    node = next(n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+    colour, top = _rgb(m.reflectance, bands)
+    node.inputs["Base Color"].default_value = (*[c * top for c in colour], 1.0)
+    mat.diffuse_color = (*[c * top for c in colour], 1.0)
+    mat.photic.use_override = True
+    mat.photic.reflectance_bands = _numbers(m.reflectance)
+    return mat
+
+
+def _water_props(obj, w) -> None:
+    p = obj.photic
+    p.absorption_bands = _numbers(w.iops.absorption)
+    p.ior = w.ior
+    if len(w.iops.scattering) > 1:
+        raise ValueError(f"water '{w.name}': more than one scattering component")
+    if w.iops.scattering:
+        comp = w.iops.scattering[0]
+        p.scattering_bands = _numbers(comp.b)
+        p.phase_function = comp.phase.type
+        if comp.phase.type == "henyey_greenstein":
+            p.hg_g = comp.phase.params["g"]
+        elif comp.phase.type == "fournier_forand":
+            p.ff_backscatter = comp.phase.params["backscatter_fraction"]
+    else:
+        p.scattering_bands = _numbers(np.zeros_like(w.iops.absorption))
+
+
+def import_scene(scene, bscene=None, collection=None) -> dict:
+    """Create the objects of a ``photic.scene.Scene`` in ``bscene`` (default: the context's).
+
+    Returns the created objects by the engine object's name."""
+    bscene = bscene or bpy.context.scene
+    collection = collection or bscene.collection
+    bands = [(b.name, b.center_nm, b.width_nm) for b in scene.bands]
+    props = bscene.photic
+    _set_bands(props, bands)
+    st = scene.settings
+    props.integrator = st.integrator.upper()
+    props.samples, props.radiometer_samples, props.seed = st.samples, st.radiometer_samples, st.seed
+    props.max_depth, props.threads, props.beam_max_level = st.max_depth, st.threads, st.beam_max_level
+    if st.forward_cone_deg == "auto":
+        props.forward_cone = "AUTO"
+    else:
+        props.forward_cone, props.forward_cone_angle = "ANGLE", math.radians(st.forward_cone_deg)
+    bscene.render.engine = "PHOTIC"
+    bscene.name = scene.name
+    created = {}
+    materials = {name: _material(m, bands) for name, m in scene.materials.items()}
+    for m in scene.meshes:
+        obj = _mesh_object(m.name, m.mesh.vertices, m.mesh.triangles, collection)
+        obj.data.materials.append(materials[m.material])
+        created[m.name] = obj
+    for w in scene.water:
+        if w.type == "mesh":
+            obj = _mesh_object(w.name, w.mesh.vertices, w.mesh.triangles, collection)
+            obj.photic.role = "WATER_BODY"
+        else:
+            s = w.surface
+            if s.kind == "flat":
+                size = 200.0  # only drawn: a flat surface has no end
+                v = [(-size, -size, 0), (size, -size, 0), (size, size, 0), (-size, size, 0)]
+                obj = _mesh_object(w.name, v, [(0, 1, 2), (0, 2, 3)], collection)
+                obj.location.z = s.z
+                obj.photic.surface_shape = "FLAT"
+            else:
+                obj = _mesh_object(w.name, s.mesh.vertices, s.mesh.triangles, collection)
+                obj.photic.surface_shape = "MESH"
+            obj.photic.role = "WATER_SURFACE"
+            if w.bottom_depth is not None:
+                obj.photic.use_bottom = True
+                obj.photic.bottom_depth = w.bottom_depth
+                obj.photic.bottom_material = materials.get(w.bottom_material)
+        _water_props(obj, w)
+        obj.display_type = "WIRE"
+        created[w.name] = obj
+    if scene.sun is not None:
+        sun = scene.sun
+        light = bpy.data.lights.new("Sun", "SUN")
+        colour, top = _rgb(sun.irradiance, bands)
+        light.color, light.energy = colour, top
+        light.angle = math.radians(sun.angular_diameter_deg)
+        obj = bpy.data.objects.new("Sun", light)
+        obj.rotation_euler = (math.radians(sun.zenith_deg), 0.0, math.radians(sun.azimuth_deg + 90.0))
+        obj.location = (0.0, 0.0, 5.0)
+        collection.objects.link(obj)
+        created["Sun"] = obj
+    world = bscene.world or bpy.data.worlds.new("World")
+    bscene.world = world
+    sky = scene.sky
+    if sky.type == "black":
+        world.photic.sky_model = "BLACK"
+        world.color = (0.0, 0.0, 0.0)
+    else:
+        colour, top = _rgb(sky.radiance_scale, bands)
+        world.photic.sky_model = sky.type.upper()
+        world.photic.radiance, world.photic.color = top, colour
+        world.color = tuple(c * top for c in colour)
+    for i, c in enumerate(scene.cameras):
+        data = bpy.data.cameras.new(c.name)
+        if c.type == "orthographic":
+            data.type = "ORTHO"
+            data.ortho_scale = c.ortho_width
+        data.sensor_fit = "HORIZONTAL"
+        data.sensor_width = 36.0
+        data.lens = 18.0 / math.tan(math.radians(c.fov_deg) / 2.0)
+        data.shift_x, data.shift_y = c.shift
+        data.clip_start = max(c.clip_start, 1e-6)
+        data.clip_end = 1e6
+        obj = bpy.data.objects.new(c.name, data)
+        obj.matrix_world = _look_matrix(c.position, c.direction, c.up)
+        collection.objects.link(obj)
+        created[c.name] = obj
+        if i == 0:
+            bscene.camera = obj
+            bscene.render.resolution_x, bscene.render.resolution_y = c.resolution
+            bscene.render.resolution_percentage = 100
+    for r in scene.radiometers:
+        obj = bpy.data.objects.new(r.name, None)
+        obj.empty_display_type = "SINGLE_ARROW"
+        obj.matrix_world = _look_matrix(r.position, r.direction, (0.0, 0.0, 1.0))
+        obj.photic.role = "RADIOMETER"
+        obj.photic.quantity = r.quantity
+        obj.photic.half_angle = math.radians(r.half_angle_deg)
+        obj.photic.polar_bins, obj.photic.azimuth_bins = r.polar_bins, r.azimuth_bins
+        collection.objects.link(obj)
+        created[r.name] = obj
+    for a in scene.radiometer_arrays:
+        direction = a.direction if a.direction is not None else (0.0, 0.0, -1.0)
+        m = _look_matrix((0.0, 0.0, 0.0), direction, (0.0, 1.0, 0.0))
+        local = np.asarray(a.positions, float) @ np.array(m.to_3x3().transposed())
+        mesh = bpy.data.meshes.new(a.name)
+        mesh.from_pydata(local.tolist(), [], [])
+        obj = bpy.data.objects.new(a.name, mesh)
+        obj.matrix_world = m
+        obj.photic.role = "RADIOMETER_ARRAY"
+        obj.photic.array_layout = "VERTICES"
+        obj.photic.quantities = set(a.quantities)
+        if a.half_angle_deg is not None:
+            obj.photic.half_angle = math.radians(a.half_angle_deg)
+        collection.objects.link(obj)
+        created[a.name] = obj
+    return created
