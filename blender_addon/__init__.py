@@ -19,6 +19,13 @@ bl_info = {
 
 import bpy  # noqa: E402
 
+from . import engine_loader  # noqa: E402
+
+try:
+    import numpy  # noqa: F401
+except ImportError:  # a distribution Blender without numpy: use the engine's environment
+    engine_loader.add_search_paths()
+
 from . import engine, operators, properties, ui  # noqa: E402
 
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory(

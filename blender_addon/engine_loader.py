@@ -39,6 +39,16 @@ def _candidate_dirs() -> list[str]:
     return dirs
 
 
+def add_search_paths() -> None:
+    """Append the listed site-packages directories (``site_packages.txt``, then
+    ``PHOTIC_SITE_PACKAGES``) to ``sys.path``. Cheap; ``__init__`` calls it before its own
+    imports when numpy is missing (a distribution Blender has none; the engine's venv has)."""
+    for d in _candidate_dirs():
+        if Path(d).is_dir() and d not in sys.path:
+            site.addsitedir(d)
+    importlib.invalidate_caches()
+
+
 def load_engine():
     """The ``photic`` package with its compiled core, or None (see ``engine_error``)."""
     global _engine, _error
@@ -48,10 +58,7 @@ def load_engine():
         try:
             importlib.import_module("photic._core")
         except ImportError:
-            for d in _candidate_dirs():
-                if Path(d).is_dir() and d not in sys.path:
-                    site.addsitedir(d)
-            importlib.invalidate_caches()
+            add_search_paths()
             importlib.import_module("photic._core")
         for name in ("photic.scene", "photic.render", "photic.output"):
             importlib.import_module(name)

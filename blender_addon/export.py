@@ -66,6 +66,15 @@ class ViewCamera:
     clip_start: float
 
 
+def blender_float(x: float) -> float:
+    """A Blender float property as the decimal number the user typed.
+
+    Blender stores properties in float32 (about 7 significant digits): 1.34 comes back as
+    1.3400000334. Keeping 7 significant digits recovers 1.34, so a scene made in Blender and
+    the same scene written as a file are identical."""
+    return float(f"{float(x):.7g}")
+
+
 def _obj(name: str) -> str:
     return f"Object '{name}'"
 
@@ -96,7 +105,7 @@ def per_band(owner: str, single: float, text: str, name: str, path: str, bands,
         arr = np.array(values, float)
     else:
         prop = f"{name} ({path})"
-        arr = np.full(nb, float(single))
+        arr = np.full(nb, blender_float(single))
     _finite_non_negative(owner, prop, arr, what)
     if hi is not None and np.any(arr > hi):
         raise ExportError(owner, prop, f"{what} {arr.max():g} is above {hi:g}")
@@ -169,7 +178,8 @@ class _Exporter:
 
     # -- geometry ----------------------------------------------------------------------------
     def mesh_data(self, obj, key):
-        """Local arrays and slot materials of an object's evaluated mesh, read once per key."""
+        """Local arrays and slot materials (Blender materials or None) of an object's evaluated
+        mesh, read once per key."""
         if key in self.mesh_cache:
             return self.mesh_cache[key]
         with evaluated_mesh(obj) as mesh:
@@ -180,7 +190,7 @@ class _Exporter:
                 slots = [s.material for s in obj.material_slots] if obj.material_slots else []
                 if not slots and len(mesh.materials):
                     slots = list(mesh.materials)
-                data = (v, t, m, [self.material(s) for s in slots] or [self.material(None)])
+                data = (v, t, m, slots or [None])
         self.info.meshes_evaluated += 1
         self.mesh_cache[key] = data
         return data
@@ -189,7 +199,8 @@ class _Exporter:
         data = self.mesh_data(obj, key)
         if data is None or len(data[1]) == 0:
             return
-        v, t, m, slot_materials = data
+        v, t, m, slots = data
+        slot_materials = [self.material(s) for s in slots]
         world = transform(v, matrix)
         if np.linalg.det(np.asarray(matrix)[:3, :3]) < 0:  # mirrored: keep normals outward
             t = t[:, ::-1]
@@ -238,9 +249,9 @@ class _Exporter:
                      "photic.scattering", self.bands, "scattering coefficient")
         params = {}
         if p.phase_function == "henyey_greenstein":
-            params = {"g": float(p.hg_g)}
+            params = {"g": blender_float(p.hg_g)}
         elif p.phase_function == "fournier_forand":
-            params = {"backscatter_fraction": float(p.ff_backscatter)}
+            params = {"backscatter_fraction": blender_float(p.ff_backscatter)}
         for pname, value in params.items():
             if not math.isfinite(value):
                 raise ExportError(owner, f"Photic > phase function parameter {pname}",
@@ -278,7 +289,7 @@ class _Exporter:
         self.info.triangles += len(t)
 
     def _ior(self, obj) -> float:
-        ior = float(obj.photic.ior)
+        ior = blender_float(obj.photic.ior)
         if not (math.isfinite(ior) and 1.0 <= ior <= 2.0):
             raise ExportError(_obj(obj.name), "Photic > Refractive Index (photic.ior)",
                               f"is {ior}, must be in [1, 2]")
@@ -306,7 +317,7 @@ class _Exporter:
                                      period=(float(extent[0]), float(extent[1])))
         bottom_depth = bottom_material = None
         if p.use_bottom:
-            depth = float(p.bottom_depth)
+            depth = blender_float(p.bottom_depth)
             if not (math.isfinite(depth) and depth > 0):
                 raise ExportError(owner, "Photic > Bottom Depth (photic.bottom_depth)",
                                   f"is {depth}, must be > 0")
@@ -326,7 +337,7 @@ class _Exporter:
             raise ExportError(_obj(obj.name), "Scale", "is zero: the radiometer has no direction")
         self.radiometers.append(S.Radiometer(
             obj.name, p.quantity, m[:3, 3].copy(), direction / np.linalg.norm(direction),
-            half_angle_deg=math.degrees(p.half_angle), polar_bins=int(p.polar_bins),
+            half_angle_deg=blender_float(math.degrees(p.half_angle)), polar_bins=int(p.polar_bins),
             azimuth_bins=int(p.azimuth_bins)))
 
     def add_radiometer_array(self, obj, key, matrix):
@@ -364,7 +375,7 @@ class _Exporter:
         direction = direction / np.linalg.norm(direction) if np.linalg.norm(direction) > 0 \
             else np.array([0.0, 0.0, -1.0])
         self.arrays.append(S.RadiometerArray(obj.name, quantities, positions, direction=direction,
-                                             half_angle_deg=math.degrees(p.half_angle)))
+                                             half_angle_deg=blender_float(math.degrees(p.half_angle))))
 
     # -- lights, world, camera ---------------------------------------------------------------
     def add_light(self, obj, matrix):
@@ -400,14 +411,14 @@ class _Exporter:
                                                  f"its -Z axis and must point downwards)")
         azimuth = round(math.degrees(math.atan2(towards[1], towards[0])), 4) % 360.0 + 0.0
         light = obj.data
-        strength = float(light.energy)
+        strength = blender_float(light.energy)
         if not (math.isfinite(strength) and strength >= 0):
             raise ExportError(owner, "Strength (data.energy)",
                               f"is {strength}, must be a finite irradiance >= 0 W m^-2")
-        colour = tuple(light.color)
+        colour = tuple(blender_float(c) for c in light.color)
         irradiance = strength * bandmod.rgb_to_bands(colour, self.bands)
         _finite_non_negative(owner, "Color (data.color)", irradiance, "sun irradiance")
-        diameter = math.degrees(float(light.angle))
+        diameter = blender_float(math.degrees(light.angle))
         if not 0.0 < diameter <= 20.0:
             raise ExportError(owner, "Angle (data.angle)", f"is {diameter:.3g} degrees; "
                                                            f"Photic's sun disk must be in "
@@ -436,7 +447,8 @@ class _Exporter:
             l0 = strength * bandmod.rgb_to_bands(colour, self.bands)
             _finite_non_negative(owner, "Surface > Color x Strength", l0, "sky radiance")
             return S.Sky("uniform", l0) if np.any(l0 > 0) else S.Sky("black")
-        l0 = float(p.radiance) * bandmod.rgb_to_bands(tuple(p.color), self.bands)
+        l0 = blender_float(p.radiance) * bandmod.rgb_to_bands(
+            tuple(blender_float(c) for c in p.color), self.bands)
         _finite_non_negative(owner, "Photic > Radiance L0 (photic.radiance)", l0, "sky radiance")
         return S.Sky("uniform" if p.sky_model == "UNIFORM" else "cardioidal", l0)
 
@@ -479,23 +491,25 @@ class _Exporter:
                 raise ExportError(owner, "Focal Length (data.lens)", f"is {data.lens}, must be > 0")
             half_ref = 0.5 * float(sensor) / float(data.lens)  # tan of the half angle
         half_width = half_ref * width / ref
+        # Blender's smallest clip start (1e-6 m) means none.
+        clip = blender_float(data.clip_start)
+        clip = 0.0 if clip <= 1e-6 else clip
         shift = (float(data.shift_x) * ref / width, float(data.shift_y) * ref / width)
         if data.type == "ORTHO":
             return S.Camera(cam.name, "orthographic", m[:3, 3].copy(), fwd, up=up.copy(),
                             ortho_width=2 * half_width, resolution=(width, height), shift=shift,
-                            clip_start=float(data.clip_start))
+                            clip_start=clip)
         fov = math.degrees(2 * math.atan(half_width))
         if not 0 < fov < 180:
             raise ExportError(owner, "Focal Length (data.lens)", f"gives a field of view of "
                                                                  f"{fov:.3g} degrees")
         return S.Camera(cam.name, "perspective", m[:3, 3].copy(), fwd, up=up.copy(),
-                        fov_deg=fov, resolution=(width, height), shift=shift,
-                        clip_start=float(data.clip_start))
+                        fov_deg=fov, resolution=(width, height), shift=shift, clip_start=clip)
 
     def settings(self):
         S = self.photic.scene
         p = self.props
-        cone = "auto" if p.forward_cone == "AUTO" else math.degrees(p.forward_cone_angle)
+        cone = "auto" if p.forward_cone == "AUTO" else blender_float(math.degrees(p.forward_cone_angle))
         return S.Settings(integrator=p.integrator.lower(), samples=int(p.samples),
                           radiometer_samples=int(p.radiometer_samples), seed=int(p.seed),
                           max_depth=int(p.max_depth), threads=int(p.threads),

@@ -48,9 +48,9 @@ def _import_engine():
 
 
 def problem2_scene_dict() -> dict:
-    """Canonical problem 2 (omega0 0.9) with its radiometers as one vertical array, and the
-    numbers Blender stores in float32 (the radiance cap angle, the camera lens) written as
-    Blender holds them."""
+    """Canonical problem 2 (omega0 0.9) with its radiometers as one vertical array; the
+    radiance cap angle is written as Blender holds it (float32, 7 significant digits) and the
+    camera's field of view as a 50 mm lens on a 36 mm sensor gives it."""
     from photic import problems
     d = problems.problem_scene(2, 0.9, samples=600_000, seed=1993)
     d["name"] = "canonical_problem2"
@@ -60,7 +60,8 @@ def problem2_scene_dict() -> dict:
         "name": "profile", "quantities": ["Ed", "Eou", "radiance"],
         "positions": [[0.0, 0.0, -tau] for tau in problems.TAUS],
         "direction": [0.0, 0.0, -1.0],
-        "half_angle_deg": math.degrees(float(np.float32(math.radians(cap)))),
+        # Blender keeps the angle in float32 radians; the add-on reads it to 7 digits.
+        "half_angle_deg": float(f"{math.degrees(float(np.float32(math.radians(cap)))):.7g}"),
     }]
     # A camera 5 m above the sea looking straight down (50 mm lens on a 36 mm sensor).
     d["cameras"] = [{"name": "Camera", "type": "perspective", "position": [0.0, 0.0, 5.0],

@@ -7,7 +7,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 PY=${PYTHON:-python3}
-APT_PACKAGES="libembree-dev g++ cmake make python3-dev python3-venv"
+APT_PACKAGES="libembree-dev g++ cmake make python3-dev python3-venv blender xvfb xauth"
 
 missing=()
 for p in $APT_PACKAGES; do

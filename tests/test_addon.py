@@ -1,0 +1,530 @@
+"""The Blender add-on through ``import bpy`` (Blender 5.0 as a Python module), as batch users run it.
+
+Each test starts from an empty Blender file with the add-on registered. Renders go through the
+RenderEngine (``bpy.ops.render.render``), exactly as F12 and ``blender -b -f`` render.
+"""
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from photic.cli import load_addon  # noqa: E402
+from photic.render import Renderer  # noqa: E402
+from photic.scene import load_scene  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+BLENDS = REPO / "example_blends"
+
+addon = load_addon()
+from photic_blender import export, final_render  # noqa: E402
+from photic_blender.batch import ensure_registered, render_blend  # noqa: E402
+
+import photic  # noqa: E402
+
+
+@pytest.fixture
+def empty():
+    """An empty Blender file with the add-on registered and Photic as the engine."""
+    ensure_registered()
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "PHOTIC"
+    scene.render.resolution_x, scene.render.resolution_y = 32, 24
+    scene.render.resolution_percentage = 100
+    return scene
+
+
+def add_mesh(name, vertices, faces, location=(0, 0, 0)):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata([list(v) for v in vertices], [], [list(f) for f in faces])
+    mesh.update()
+    obj = bpy.data.objects.new(name, mesh)
+    obj.location = location
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def add_box(name, size=1.0, location=(0, 0, 0)):
+    s = size / 2
+    v = [(-s, -s, -s), (s, -s, -s), (s, s, -s), (-s, s, -s), (-s, -s, s), (s, -s, s), (s, s, s), (-s, s, s)]
+    f = [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)]
+    return add_mesh(name, v, f, location)
+
+
+def add_camera(location=(0, -6, 2), rotation=(math.radians(75), 0, 0)):
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.location, cam.rotation_euler = location, rotation
+    bpy.context.scene.collection.objects.link(cam)
+    bpy.context.scene.camera = cam
+    return cam
+
+
+def add_sun(zenith_deg=30.0, azimuth_deg=0.0, name="Sun"):
+    light = bpy.data.lights.new(name, "SUN")
+    light.energy = 1.0
+    obj = bpy.data.objects.new(name, light)
+    obj.rotation_euler = (math.radians(zenith_deg), 0, math.radians(azimuth_deg + 90))
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def add_sea(name="Sea", depth=None):
+    obj = add_mesh(name, [(-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0)], [(0, 1, 2, 3)])
+    obj.photic.role = "WATER_SURFACE"
+    if depth is not None:
+        obj.photic.use_bottom, obj.photic.bottom_depth = True, depth
+    return obj
+
+
+def export_current(**kw):
+    return export.export_scene(bpy.context.evaluated_depsgraph_get(), photic, **kw)
+
+
+# ------------------------------------------------------------------------------------------
+# Example files rendered through the add-on
+# ------------------------------------------------------------------------------------------
+
+def exr_channels(path):
+    import OpenEXR
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        return {name: ch.pixels for part in f.parts for name, ch in part.channels.items()}
+
+
+@pytest.mark.parametrize("name, has_radiometers", [("canonical_problem2", True),
+                                                   ("stepped_pool", False),
+                                                   ("underwater_objects", False)])
+def test_example_blends_render_through_the_addon(tmp_path, name, has_radiometers):
+    summary = render_blend(BLENDS / f"{name}.blend", out_dir=tmp_path, samples=2,
+                           radiometer_samples=8192)
+    channels = exr_channels(summary["image"])
+    layer = "ViewLayer."
+    for p in ("Combined", *final_render.PASS_NAMES):
+        for c in "RGB":
+            assert f"{layer}{p}.{c}" in channels, sorted(channels)
+    combined = np.stack([channels[f"{layer}Combined.{c}"] for c in "RGB"], -1)
+    assert np.all(np.isfinite(combined)) and combined.mean() > 0
+    # The component passes sum to the combined image (hybrid integrator).
+    parts = sum(np.stack([channels[f"{layer}{p}.{c}"] for c in "RGB"], -1)
+                for p in final_render.PASS_NAMES[:3])
+    np.testing.assert_allclose(parts, combined[..., :3], rtol=1e-4, atol=1e-6)
+    assert np.all(np.stack([channels[f"{layer}Photic Variance.{c}"] for c in "RGB"]) >= 0)
+    if has_radiometers:
+        csv = Path(summary["tables"][0])
+        assert csv.is_file() and csv.name == f"{name}_0001_radiometers.csv"
+        rows = [line for line in csv.read_text().splitlines() if not line.startswith("#")]
+        assert len(rows) == 1 + 9  # header + 3 depths x (Ed, Eou, radiance)
+        assert final_render.LAST_RADIOMETERS[bpy.context.scene.name]["rows"]
+
+
+def test_canonical_blend_exports_exactly_the_scene_file_and_renders_the_same_values(tmp_path):
+    """The .blend and canonical_problem2.json (written from the problem's definition) are the
+    same scene; rendered with the same seed they give the same numbers, bit for bit."""
+    ensure_registered()
+    bpy.ops.wm.open_mainfile(filepath=str(BLENDS / "canonical_problem2.blend"))
+    exported, _ = export_current()
+    reference = load_scene(BLENDS / "canonical_problem2.json")
+    assert exported.to_dict() == reference.to_dict()
+
+    n = 16384
+    direct = Renderer(reference, samples=1, radiometer_samples=n).run()
+    summary = render_blend(BLENDS / "canonical_problem2.blend", out_dir=tmp_path, samples=1,
+                           radiometer_samples=n)
+    import json
+    table = json.loads(Path(summary["tables"][1]).read_text())
+    assert [r["name"] for r in table["radiometers"]] == [r.name for r in direct.radiometers]
+    for r_blend, r_direct in zip(table["radiometers"], direct.radiometers):
+        assert r_blend["value"] == r_direct.mean.tolist()
+        assert r_blend["stderr"] == r_direct.stderr.tolist()
+
+
+def test_canonical_blend_reproduces_problem_2(zscore):
+    """The .blend's radiometer array against the published mean of the models (Mobley et al.
+    1993), with the tolerance of `photic problems` and fewer samples."""
+    from photic.problems import TAUS, reference_table
+    ensure_registered()
+    bpy.ops.wm.open_mainfile(filepath=str(BLENDS / "canonical_problem2.blend"))
+    scene, _ = export_current()
+    res = Renderer(scene, radiometer_samples=65536).run()
+    refs = reference_table()
+    names = {"Ed": "Ed", "Eou": "Eou", "radiance": "Lu"}
+    for i, tau in enumerate(TAUS):
+        for q in ("Ed", "Eou", "radiance"):
+            r = res.radiometer(f"profile[{i}].{q}")
+            ref, cv = refs[(2, 0.9, tau, names[q])]
+            value, se = float(r.mean[0, 0]), float(r.stderr[0, 0])
+            zscore(f"problem 2 .blend tau {tau:g} {names[q]} (ref: model mean)", value, ref, se)
+            assert abs(value - ref) <= (2 * cv + 0.005) * ref + 3 * se, (tau, q, value, ref, se)
+
+
+# ------------------------------------------------------------------------------------------
+# Streaming, progress and cancel
+# ------------------------------------------------------------------------------------------
+
+def test_render_streams_updates_into_the_render_result(empty):
+    """A render of 3 s or more through the RenderEngine streams at least 3 updates."""
+    scene = empty
+    scene.render.resolution_x, scene.render.resolution_y = 160, 120
+    scene.photic.samples = 512
+    scene.photic.integrator = "PATH"
+    scene.photic.threads = 1
+    add_sea(depth=4.0).photic.scattering = 0.5
+    add_box("Rock", 1.0, (0, 0, -3.5))
+    add_camera((0, -5, 1), (math.radians(80), 0, 0))
+    add_sun(30)
+    final_render.LAST_RENDER.clear()
+    bpy.ops.render.render()
+    summary = final_render.LAST_RENDER
+    assert summary["error"] is None
+    assert summary["time_s"] >= 3.0, summary["time_s"]
+    assert summary["updates"] >= 3, summary
+    gaps = np.diff(summary["update_times"])
+    assert gaps.max() <= 2.0, gaps  # streaming keeps going (passes double up to 16 spp)
+    assert summary["samples"] == 512
+
+
+class StandInEngine:
+    """The RenderEngine methods FinalRender uses; Esc is 'pressed' after ``break_after_s``."""
+
+    def __init__(self, break_after_s):
+        self.break_after_s = break_after_s
+        self.t0 = time.perf_counter()
+        self.updates, self.reports, self.progress = 0, [], []
+        self.final_pixels = None
+
+    def test_break(self):
+        return time.perf_counter() - self.t0 > self.break_after_s
+
+    def begin_result(self, x, y, w, h):
+        class Pass:
+            rect = None
+
+        passes = {name: Pass() for name in ("Combined", *final_render.PASS_NAMES)}
+
+        class Layer:
+            pass
+
+        layer = Layer()
+        layer.passes = passes
+
+        class Result:
+            layers = [layer]
+
+        return Result()
+
+    def update_result(self, result):
+        self.updates += 1
+
+    def end_result(self, result):
+        self.final_pixels = result.layers[0].passes["Combined"].rect
+
+    def update_progress(self, f):
+        self.progress.append(f)
+
+    def update_stats(self, stats, info):
+        self.stats = info
+
+    def report(self, kind, message):
+        self.reports.append((kind, message))
+
+    def error_set(self, message):
+        self.reports.append(({"ERROR"}, message))
+
+
+def test_cancel_is_honoured_within_half_a_second_and_keeps_the_partial_image(empty):
+    scene = empty
+    scene.render.resolution_x, scene.render.resolution_y = 200, 150
+    scene.photic.samples = 100000
+    scene.photic.threads = 1
+    add_sea(depth=4.0).photic.scattering = 0.5
+    add_box("Rock", 1.0, (0, 0, -3.5))
+    add_camera((0, -5, 1), (math.radians(80), 0, 0))
+    add_sun(30)
+    engine = StandInEngine(break_after_s=2.0)
+    summary = final_render.FinalRender(engine, bpy.context.evaluated_depsgraph_get()).run()
+    assert summary["cancelled"] and summary["error"] is None
+    assert summary["cancel_latency_s"] <= 0.5, summary["cancel_latency_s"]
+    assert summary["updates"] >= 2
+    assert 0 < summary["samples"] < 100000
+    pixels = np.asarray(engine.final_pixels).reshape(-1, 4)
+    assert pixels.shape[0] == 200 * 150 and pixels[:, :3].mean() > 0
+    assert engine.progress[-1] < 1.0 or summary["cancelled"]
+    print(f"cancel latency {1000 * summary['cancel_latency_s']:.0f} ms after "
+          f"{summary['samples']} samples; {summary['updates']} updates")
+
+
+# ------------------------------------------------------------------------------------------
+# Export: cameras, instances, speed
+# ------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("fit, size, shift, ortho", [
+    ("AUTO", (64, 48), (0.0, 0.0), False), ("AUTO", (48, 64), (0.1, -0.05), False),
+    ("VERTICAL", (64, 48), (0.2, 0.1), False), ("HORIZONTAL", (40, 80), (-0.1, 0.3), False),
+    ("AUTO", (64, 48), (0.1, 0.2), True), ("VERTICAL", (48, 64), (0.0, 0.1), True)])
+def test_camera_projection_matches_blender(empty, fit, size, shift, ortho):
+    """Points seen by the exported camera land where Blender's own projection puts them."""
+    from bpy_extras.object_utils import world_to_camera_view
+    from mathutils import Vector
+    scene = empty
+    scene.render.resolution_x, scene.render.resolution_y = size
+    cam = add_camera((1.0, -4.0, 2.0), (math.radians(70), math.radians(5), math.radians(20)))
+    cam.data.sensor_fit, cam.data.lens = fit, 35.0
+    cam.data.shift_x, cam.data.shift_y = shift
+    if ortho:
+        cam.data.type, cam.data.ortho_scale = "ORTHO", 5.0
+    add_sun(30)
+    exported, _ = export_current()
+    c = exported.cameras[0]
+    fwd = c.direction / np.linalg.norm(c.direction)
+    right = np.cross(fwd, c.up)
+    right /= np.linalg.norm(right)
+    up = np.cross(right, fwd)
+    aspect = size[1] / size[0]
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        p = np.array(cam.matrix_world.translation) + 6 * fwd + rng.normal(0, 1.0, 3)
+        u_b, v_b, _ = world_to_camera_view(scene, cam, Vector(p))
+        d = p - c.position
+        if ortho:
+            half = c.ortho_width / 2
+            x, y = d @ right / half, d @ up / half
+        else:
+            t = math.tan(math.radians(c.fov_deg) / 2)
+            x, y = (d @ right) / (d @ fwd) / t, (d @ up) / (d @ fwd) / t
+        u = (x - 2 * c.shift[0] + 1) / 2
+        v = ((y - 2 * c.shift[1]) / aspect + 1) / 2
+        assert abs(u - u_b) < 1e-5 and abs(v - v_b) < 1e-5, (u, u_b, v, v_b)
+
+
+def test_instances_are_grouped_by_mesh_and_transformed(empty):
+    add_camera()
+    add_sun(30)
+    rock = add_box("Rock", 1.0)
+    for i in range(5):  # linked duplicates share the mesh
+        dup = rock.copy()
+        dup.location = (2.0 * i, 0, -1)
+        dup.scale = (1, 1, 2)
+        bpy.context.scene.collection.objects.link(dup)
+    scene, info = export_current()
+    assert info.meshes_evaluated == 1
+    assert len(scene.meshes) == 1 and len(scene.meshes[0].mesh.triangles) == 6 * 12
+    v = scene.meshes[0].mesh.vertices
+    assert v[:, 0].max() == pytest.approx(8.5) and v[:, 2].min() == pytest.approx(-2.0)
+
+
+def test_million_triangle_scene_with_1000_instances_exports_within_3_s(empty):
+    """1,000,000+ triangles: a 500k-triangle terrain and 1000 instances of a 512-triangle rock
+    (collection instances), exported from the evaluated depsgraph."""
+    scene = empty
+    add_camera()
+    add_sun(30)
+    n = 500
+    g = np.linspace(-50, 50, n + 1)
+    xx, yy = np.meshgrid(g, g, indexing="ij")
+    verts = np.stack([xx.ravel(), yy.ravel(), (0.3 * np.sin(xx) * np.cos(yy)).ravel()], 1)
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    a = (i * (n + 1) + j).ravel()
+    quads = np.stack([a, a + n + 1, a + n + 2, a + 1], 1)
+    mesh = bpy.data.meshes.new("terrain")
+    mesh.vertices.add(len(verts))
+    mesh.vertices.foreach_set("co", verts.astype(np.float32).ravel())
+    mesh.loops.add(quads.size)
+    mesh.loops.foreach_set("vertex_index", quads.astype(np.int32).ravel())
+    mesh.polygons.add(len(quads))
+    mesh.polygons.foreach_set("loop_start", np.arange(0, quads.size, 4, dtype=np.int32))
+    if "loop_total" in mesh.polygons[0].bl_rna.properties and not mesh.polygons[0].bl_rna.properties["loop_total"].is_readonly:
+        mesh.polygons.foreach_set("loop_total", np.full(len(quads), 4, np.int32))
+    mesh.update()
+    terrain = bpy.data.objects.new("terrain", mesh)
+    scene.collection.objects.link(terrain)
+    coll = bpy.data.collections.new("rocks")
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=16, ring_count=17, radius=0.5)
+    rock = bpy.context.object
+    for c in rock.users_collection:
+        c.objects.unlink(rock)
+    coll.objects.link(rock)
+    rng = np.random.default_rng(1)
+    for k in range(1000):
+        inst = bpy.data.objects.new(f"rock{k}", None)
+        inst.instance_type = "COLLECTION"
+        inst.instance_collection = coll
+        inst.location = (*rng.uniform(-45, 45, 2), 0.3)
+        scene.collection.objects.link(inst)
+    times = []
+    for _ in range(2):
+        t0 = time.perf_counter()
+        exported, info = export_current()
+        times.append(time.perf_counter() - t0)
+    tris = sum(len(m.mesh.triangles) for m in exported.meshes)
+    assert tris == info.triangles >= 1_000_000
+    assert info.meshes_evaluated == 2
+    print(f"export of {tris} triangles ({info.instances} instances): "
+          f"{min(times):.2f} s (best of 2), {times}")
+    assert min(times) <= 3.0, times
+
+
+# ------------------------------------------------------------------------------------------
+# Bad scenes: a clear message naming the object and the property, never a traceback
+# ------------------------------------------------------------------------------------------
+
+def _no_camera(scene):
+    add_sun(30)
+    add_sea()
+
+
+def _open_water_body(scene):
+    add_camera()
+    v = [(-1, -1, -1), (1, -1, -1), (1, 1, -1), (-1, 1, -1), (-1, -1, 1), (1, -1, 1), (1, 1, 1), (-1, 1, 1)]
+    f = [(0, 3, 2, 1), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)]  # no lid
+    add_mesh("Pool", v, f).photic.role = "WATER_BODY"
+
+
+def _negative_iop(scene):
+    add_camera()
+    add_sea().photic.absorption_bands = "0.1, -0.2, 0.3"
+
+
+def _nan_iop(scene):
+    add_camera()
+    add_sea().photic.scattering_bands = "nan"
+
+
+def _band_count(scene):
+    add_camera()
+    add_sea().photic.absorption_bands = "0.1, 0.2"
+
+
+def _sun_below(scene):
+    add_camera()
+    add_sea()
+    add_sun(120)
+
+
+def _empty(scene):
+    add_camera()
+
+
+def _array_empty(scene):
+    add_camera()
+    add_sea()
+    arr = bpy.data.objects.new("Profile", None)
+    scene.collection.objects.link(arr)
+    arr.photic.role, arr.photic.array_count = "RADIOMETER_ARRAY", 0
+
+
+def _array_no_quantity(scene):
+    add_camera()
+    add_sea()
+    arr = bpy.data.objects.new("Profile", None)
+    scene.collection.objects.link(arr)
+    arr.photic.role, arr.photic.quantities = "RADIOMETER_ARRAY", set()
+
+
+def _two_suns(scene):
+    add_camera()
+    add_sea()
+    add_sun(30, name="Sun")
+    add_sun(40, name="Sun2")
+
+
+def _bad_bands(scene):
+    add_camera()
+    add_sea()
+    scene.photic.bands, scene.photic.custom_bands = "CUSTOM", "450:20, green"
+
+
+def _panoramic(scene):
+    add_camera().data.type = "PANO"
+    add_sea()
+
+
+def _sun_too_large(scene):
+    add_camera()
+    add_sea()
+    add_sun(30).data.angle = math.radians(45)
+
+
+def _downward_patch(scene):
+    add_camera()
+    sea = add_sea()
+    sea.photic.surface_shape = "MESH"
+    sea.rotation_euler = (math.pi, 0, 0)  # upside down: normals point down
+
+
+def _bad_reflectance(scene):
+    add_camera()
+    add_sea(depth=5.0)
+    mat = bpy.data.materials.new("Sand")
+    mat.photic.use_override, mat.photic.reflectance_bands = True, "0.3, 1.5, 0.2"
+    bpy.data.objects["Sea"].photic.bottom_material = mat
+
+
+BAD_SCENES = [
+    (_no_camera, ["Scene", "Camera", "no camera"]),
+    (_open_water_body, ["Object 'Pool'", "not closed"]),
+    (_negative_iop, ["Object 'Sea'", "Absorption per Band", "band 2", ">= 0"]),
+    (_nan_iop, ["Object 'Sea'", "Scattering per Band", "nan"]),
+    (_band_count, ["Object 'Sea'", "Absorption per Band", "2 values", "3 bands"]),
+    (_sun_below, ["Light 'Sun'", "Rotation", "below the horizon"]),
+    (_empty, ["Scene", "empty"]),
+    (_array_empty, ["Object 'Profile'", "Layout", "no elements"]),
+    (_array_no_quantity, ["Object 'Profile'", "Quantities", "at least one quantity"]),
+    (_two_suns, ["Light 'Sun2'", "one sun lamp"]),
+    (_bad_bands, ["Scene", "Bands", "band 2", "'green'"]),
+    (_panoramic, ["Object 'Camera'", "Type", "panoramic"]),
+    (_sun_too_large, ["Light 'Sun'", "Angle", "20"]),
+    (_downward_patch, ["Object 'Sea'", "surface.triangles", "upwards"]),
+    (_bad_reflectance, ["Material 'Sand'", "Reflectance per Band", "above 1"]),
+]
+
+
+@pytest.mark.parametrize("build, expected", BAD_SCENES, ids=[b.__name__[1:] for b, _ in BAD_SCENES])
+def test_bad_scene_gives_a_clear_message(empty, build, expected):
+    build(empty)
+    with pytest.raises(export.ExportError) as info:
+        export_current()
+    message = str(info.value)
+    for text in expected:
+        assert text in message, message
+
+
+@pytest.mark.parametrize("build, expected", [BAD_SCENES[2], BAD_SCENES[5]],
+                         ids=["negative_iop", "sun_below"])
+def test_bad_scene_render_reports_and_blender_keeps_running(empty, build, expected):
+    """Through the RenderEngine: the message is reported, no traceback reaches the user."""
+    build(empty)
+    final_render.LAST_RENDER.clear()
+    try:
+        bpy.ops.render.render()
+    except RuntimeError as exc:  # the operator passes the engine's error report on
+        assert all(t in str(exc) for t in expected[:2]), str(exc)
+    assert all(t in final_render.LAST_RENDER["error"] for t in expected)
+    assert "Traceback" not in final_render.LAST_RENDER["error"]
+    bpy.ops.wm.read_homefile(use_empty=True)  # Blender is still usable
+
+
+def test_addon_registers_and_explains_when_the_engine_is_missing(tmp_path):
+    """Registration never needs the compiled core; the reason reaches the UI."""
+    import subprocess
+    import sys
+    code = f"""
+import sys
+sys.modules['photic._core'] = None   # as if the compiled core failed to import
+import bpy
+from photic.cli import load_addon
+addon = load_addon()
+addon.register()
+from photic_blender import engine_loader
+assert engine_loader.load_engine() is None
+msg = engine_loader.engine_error()
+assert 'could not be imported' in msg and 'photic._core' in msg, msg
+print('OK', msg)
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "OK" in out.stdout
