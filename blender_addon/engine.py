@@ -36,13 +36,13 @@ class PhoticRenderEngine(bpy.types.RenderEngine):
 
     def view_update(self, context, depsgraph):
         if self.viewport is None:
-            self.viewport = viewport.ViewportRender(self)
+            self.viewport = viewport.ViewportRender()
         self.viewport.update(context, depsgraph)
 
     def view_draw(self, context, depsgraph):
         if self.viewport is None:
-            self.viewport = viewport.ViewportRender(self)
-        self.viewport.draw(context, depsgraph)
+            self.viewport = viewport.ViewportRender()
+        self.viewport.draw(self, context, depsgraph)
 
 
 def compatible_panels():

@@ -32,10 +32,13 @@ def view_camera(context, width: int, height: int) -> ViewCamera:
 
 
 class ViewportRender:
-    """The viewport state of one RenderEngine instance."""
+    """The viewport state of one RenderEngine instance.
 
-    def __init__(self, engine):
-        self.engine = engine
+    It keeps no reference to the engine (``draw`` is given it): a reference cycle would keep
+    the engine's Python object alive after Blender frees the engine, and its ``__del__``, which
+    stops the render thread, would then run late, on a removed StructRNA, and fail."""
+
+    def __init__(self):
         self.renderer = None
         self.thread = None
         self.key = None
@@ -87,7 +90,7 @@ class ViewportRender:
         self.thread = threading.Thread(target=work, name="photic-viewport", daemon=True)
         self.thread.start()
 
-    def draw(self, context, depsgraph) -> None:
+    def draw(self, engine, context, depsgraph) -> None:
         import gpu
         from gpu_extras.presets import draw_texture_2d
 
@@ -102,7 +105,7 @@ class ViewportRender:
             self._start(context, depsgraph, width, height)
             self.texture_samples = -1
         if self.message:
-            self.engine.update_stats("", f"Photic: {self.message}")
+            engine.update_stats("", f"Photic: {self.message}")
         renderer = self.renderer
         if renderer is not None:
             snap = renderer.snapshot("viewport")
@@ -111,12 +114,12 @@ class ViewportRender:
                 buf = gpu.types.Buffer("FLOAT", rgba.size, np.ascontiguousarray(rgba).ravel())
                 self.texture = gpu.types.GPUTexture((width, height), format="RGBA16F", data=buf)
                 self.texture_samples = snap.samples
-                self.engine.update_stats("", f"Photic: sample {snap.samples}/{renderer.samples}")
+                engine.update_stats("", f"Photic: sample {snap.samples}/{renderer.samples}")
             if self.thread is not None and self.thread.is_alive():
-                self.engine.tag_redraw()
+                engine.tag_redraw()
         if self.texture is not None:
             gpu.state.blend_set("ALPHA_PREMULT")
-            self.engine.bind_display_space_shader(depsgraph.scene_eval)
+            engine.bind_display_space_shader(depsgraph.scene_eval)
             draw_texture_2d(self.texture, (0, 0), region.width, region.height)
-            self.engine.unbind_display_space_shader()
+            engine.unbind_display_space_shader()
             gpu.state.blend_set("NONE")

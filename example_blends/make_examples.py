@@ -19,7 +19,8 @@ Scenes:
   scene file, written from the problem's definition (not exported from Blender): exporting the
   .blend must give exactly this scene.
 - ``underwater_objects.blend``: an underwater camera looking at a rock, a crate, a pillar and a
-  ring on a sandy bottom 8 m deep under a wavy sea (a tiling wave patch), with sun shafts.
+  ring on a sandy bottom 8 m deep under a wavy sea (a tiling wave patch), with sun shafts, and a
+  radiometer profile (Ed, Eu, Eo every metre) beside the diver. The README's main job.
 """
 from __future__ import annotations
 
@@ -91,19 +92,21 @@ def wave_patch(period: float, n: int, waves) -> tuple[np.ndarray, np.ndarray]:
 def underwater_scene_dict() -> dict:
     import trimesh
     objects = [
-        ("rock", trimesh.creation.icosphere(subdivisions=3, radius=1.0), (1.5, 3.0, -7.4), "rock"),
-        ("crate", trimesh.creation.box(extents=(1.6, 1.6, 1.2)), (-2.0, 5.0, -7.4), "wood"),
-        ("pillar", trimesh.creation.cylinder(radius=0.35, height=5.0, sections=48), (3.5, 8.0, -5.5), "concrete"),
+        ("rock", trimesh.creation.icosphere(subdivisions=3, radius=1.0), (1.5, 2.0, -5.4), "rock"),
+        ("crate", trimesh.creation.box(extents=(1.6, 1.6, 1.2)), (-2.0, 4.0, -5.4), "wood"),
+        ("pillar", trimesh.creation.cylinder(radius=0.35, height=5.0, sections=48), (3.5, 7.0, -3.5), "concrete"),
         ("ring", trimesh.creation.torus(major_radius=0.8, minor_radius=0.2, major_sections=32,
-                                        minor_sections=12), (-0.5, 2.5, -7.8), "rock"),
+                                        minor_sections=12), (-0.5, 1.5, -5.8), "rock"),
     ]
     meshes = []
     for name, tm, pos, mat in objects:
         tm.apply_translation(pos)
         meshes.append({"name": name, "material": mat, "vertices": tm.vertices.tolist(),
                        "triangles": tm.faces.tolist()})
-    v, t = wave_patch(4.0, 48, [(0.03, 1, 0, 0.0), (0.02, 1, 2, 1.1), (0.012, -2, 3, 2.3),
-                                (0.006, 4, -1, 0.4)])
+    # Long, gentle waves: their foci lie below the 6 m bottom, so the bottom shows soft caustics
+    # and the water soft shafts (sharp foci need the sub-pixel roughness of the sea-surface work
+    # to be rendered without fireflies).
+    v, t = wave_patch(8.0, 48, [(0.03, 1, 0, 0.0), (0.02, 1, 2, 1.1), (0.008, -2, 3, 2.3)])
     return {
         "photic_scene": 1, "name": "underwater_objects",
         "bands": [{"name": "620", "center_nm": 620.0, "width_nm": 80.0},
@@ -116,17 +119,20 @@ def underwater_scene_dict() -> dict:
         "meshes": meshes,
         "water": [{"name": "sea", "type": "ocean", "ior": 1.34,
                    "surface": {"kind": "patch", "vertices": v.tolist(), "triangles": t.tolist(),
-                               "period": [4.0, 4.0]},
-                   "bottom": {"depth": 8.0, "material": "sand"},
-                   "iops": {"absorption": [0.35, 0.07, 0.03], "b": [0.25, 0.25, 0.25],
+                               "period": [8.0, 8.0]},
+                   "bottom": {"depth": 6.0, "material": "sand"},
+                   "iops": {"absorption": [0.35, 0.07, 0.03], "b": [0.15, 0.15, 0.15],
                             "phase": {"type": "petzold"}}}],
         "sun": {"zenith_deg": 25.0, "azimuth_deg": 0.0, "irradiance": [1.6, 1.8, 1.7]},
         "sky": {"type": "cardioidal", "radiance": [0.06, 0.08, 0.1]},
-        "cameras": [{"name": "diver", "type": "perspective", "position": [0.0, -3.0, -5.0],
-                     "look_at": [0.5, 5.0, -6.5], "up": [0, 0, 1], "fov_deg": 75.0,
+        "cameras": [{"name": "diver", "type": "perspective", "position": [0.0, -2.5, -2.5],
+                     "look_at": [0.5, 4.0, -4.5], "up": [0, 0, 1], "fov_deg": 75.0,
                      "resolution": [160, 90]}],
-        "settings": {"integrator": "hybrid", "samples": 16, "seed": 11, "forward_cone_deg": "auto",
-                     "beam_max_level": 2},
+        # A profiling radiometer array beside the diver: Ed, Eu, Eo at 1, 3 and 5 m.
+        "radiometer_arrays": [{"name": "profile", "quantities": ["Ed", "Eu", "Eo"],
+                               "positions": [[-1.0, -1.0, -z] for z in (1.0, 3.0, 5.0)]}],
+        "settings": {"integrator": "hybrid", "samples": 32, "seed": 11, "forward_cone_deg": "auto",
+                     "radiometer_samples": 8192, "beam_max_level": 2},
     }
 
 
