@@ -19,6 +19,7 @@ import numpy as np
 
 from . import bands as bandmod
 from .mesh_export import drop_degenerate, evaluated_mesh, mesh_arrays, transform
+from .nodes import find_node
 
 GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT", "CURVES", "POINTCLOUD"}
 DEFAULT_MATERIAL = "photic_default_grey"
@@ -167,13 +168,12 @@ class _Exporter:
     @staticmethod
     def _base_colour(mat):
         """Base colour of the material's Principled BSDF, else its viewport colour."""
-        tree = getattr(mat, "node_tree", None)
-        if tree is not None and getattr(mat, "use_nodes", True):
-            for node in tree.nodes:
-                if node.type == "BSDF_PRINCIPLED":
-                    return tuple(node.inputs["Base Color"].default_value)[:3]
-                if node.type == "BSDF_DIFFUSE":
-                    return tuple(node.inputs["Color"].default_value)[:3]
+        node = find_node(mat, "BSDF_PRINCIPLED")
+        if node is not None:
+            return tuple(node.inputs["Base Color"].default_value)[:3]
+        node = find_node(mat, "BSDF_DIFFUSE")
+        if node is not None:
+            return tuple(node.inputs["Color"].default_value)[:3]
         return tuple(mat.diffuse_color)[:3]
 
     # -- geometry ----------------------------------------------------------------------------
@@ -437,13 +437,10 @@ class _Exporter:
             return S.Sky("black")
         if p.sky_model == "FROM_WORLD":
             colour, strength = tuple(world.color)[:3], 1.0
-            tree = getattr(world, "node_tree", None)
-            if tree is not None:
-                for node in tree.nodes:
-                    if node.type == "BACKGROUND":
-                        colour = tuple(node.inputs["Color"].default_value)[:3]
-                        strength = float(node.inputs["Strength"].default_value)
-                        break
+            node = find_node(world, "BACKGROUND")
+            if node is not None:
+                colour = tuple(node.inputs["Color"].default_value)[:3]
+                strength = float(node.inputs["Strength"].default_value)
             l0 = strength * bandmod.rgb_to_bands(colour, self.bands)
             _finite_non_negative(owner, "Surface > Color x Strength", l0, "sky radiance")
             return S.Sky("uniform", l0) if np.any(l0 > 0) else S.Sky("black")
@@ -466,6 +463,11 @@ class _Exporter:
         cam = self.bscene.camera
         if cam is None:
             return None
+        r = self.bscene.render
+        if abs(r.pixel_aspect_x - r.pixel_aspect_y) > 1e-6 * r.pixel_aspect_x:
+            raise ExportError(f"Scene '{self.bscene.name}'", "Output > Format > Aspect "
+                              "(render.pixel_aspect_x/y)", f"non-square pixels "
+                              f"({r.pixel_aspect_x:g}:{r.pixel_aspect_y:g}) are not supported")
         owner = _obj(cam.name)
         data = cam.data
         m = np.asarray(cam.matrix_world, float)

@@ -13,6 +13,7 @@ import numpy as np
 from mathutils import Matrix, Vector
 
 from . import bands as bandmod
+from .nodes import find_node
 
 _ROLE_QUANTITY = {"radiance", "radiance_distribution"}
 
@@ -69,8 +70,9 @@ def _set_bands(props, bands) -> None:
 
 def _material(m, bands):
     mat = bpy.data.materials.new(m.name)
-    mat.use_nodes = True
-    node = next(n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+    if bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True
+    node = find_node(mat, "BSDF_PRINCIPLED")
     colour, top = _rgb(m.reflectance, bands)
     node.inputs["Base Color"].default_value = (*[c * top for c in colour], 1.0)
     mat.diffuse_color = (*[c * top for c in colour], 1.0)
@@ -84,7 +86,9 @@ def _water_props(obj, w) -> None:
     p.absorption_bands = _numbers(w.iops.absorption)
     p.ior = w.ior
     if len(w.iops.scattering) > 1:
-        raise ValueError(f"water '{w.name}': more than one scattering component")
+        raise ValueError(f"water '{w.name}': {len(w.iops.scattering)} scattering components; "
+                         f"a Blender water object holds one (mixtures come with the "
+                         f"natural-waters models)")
     if w.iops.scattering:
         comp = w.iops.scattering[0]
         p.scattering_bands = _numbers(comp.b)

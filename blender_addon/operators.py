@@ -1,4 +1,5 @@
-"""Operators: export the Photic scene description of the current view layer."""
+"""Operators: export the Photic scene description of the current view layer; import a scene
+file as Blender objects."""
 from __future__ import annotations
 
 import bpy
@@ -41,16 +42,51 @@ class PHOTIC_OT_export_scene(bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
 
+class PHOTIC_OT_import_scene(bpy.types.Operator):
+    """Create Blender objects from a Photic scene file (.json)"""
+
+    bl_idname = "photic.import_scene"
+    bl_label = "Import Photic Scene (.json)"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filepath: StringProperty(subtype="FILE_PATH", description="Scene file to read")
+
+    def execute(self, context):
+        photic = load_engine()
+        if photic is None:
+            self.report({"ERROR"}, engine_error())
+            return {"CANCELLED"}
+        from .importer import import_scene
+        try:
+            scene = photic.scene.load_scene(bpy.path.abspath(self.filepath))
+            created = import_scene(scene, context.scene)
+        except (OSError, ValueError) as exc:  # SceneError is a ValueError
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Photic scene '{scene.name}': {len(created)} objects created")
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        context.window_manager.fileselect_add(self)
+        return {"RUNNING_MODAL"}
+
+
+def menu_import(self, context):
+    self.layout.operator(PHOTIC_OT_import_scene.bl_idname, text="Photic Scene (.json)")
+
+
 def menu_export(self, context):
     self.layout.operator(PHOTIC_OT_export_scene.bl_idname, text="Photic Scene (.json)")
 
 
-classes = (PHOTIC_OT_export_scene,)
+classes = (PHOTIC_OT_export_scene, PHOTIC_OT_import_scene)
 
 
 def register():
     bpy.types.TOPBAR_MT_file_export.append(menu_export)
+    bpy.types.TOPBAR_MT_file_import.append(menu_import)
 
 
 def unregister():
     bpy.types.TOPBAR_MT_file_export.remove(menu_export)
+    bpy.types.TOPBAR_MT_file_import.remove(menu_import)

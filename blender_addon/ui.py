@@ -5,6 +5,7 @@ import bpy
 
 from . import final_render
 from .engine_loader import engine_error, load_engine
+from .nodes import find_node
 
 
 class PhoticPanel:
@@ -174,8 +175,7 @@ class PHOTIC_PT_material(PhoticPanel, bpy.types.Panel):
             layout.prop(p, "reflectance_bands")
         else:
             layout.label(text="Lambertian, reflectance = Principled BSDF base colour")
-            tree = mat.node_tree if mat.use_nodes else None
-            node = next((n for n in tree.nodes if n.type == "BSDF_PRINCIPLED"), None) if tree else None
+            node = find_node(mat, "BSDF_PRINCIPLED")
             if node is not None:
                 layout.prop(node.inputs["Base Color"], "default_value", text="Base Color")
             else:
@@ -200,8 +200,7 @@ class PHOTIC_PT_world(PhoticPanel, bpy.types.Panel):
             layout.prop(p, "radiance")
             layout.prop(p, "color")
         elif p.sky_model == "FROM_WORLD":
-            tree = world.node_tree if world.use_nodes else None
-            node = next((n for n in tree.nodes if n.type == "BACKGROUND"), None) if tree else None
+            node = find_node(world, "BACKGROUND")
             if node is not None:
                 layout.prop(node.inputs["Color"], "default_value", text="Color")
                 layout.prop(node.inputs["Strength"], "default_value", text="Radiance Scale")
