@@ -559,3 +559,25 @@ def test_scene_file_import_then_export_round_trips(empty, tmp_path):
     assert a.sun.zenith_deg == b.sun.zenith_deg and a.sun.azimuth_deg == b.sun.azimuth_deg
     np.testing.assert_allclose(a.sun.irradiance, b.sun.irradiance, rtol=1e-6)
     assert sum(len(m.mesh.triangles) for m in a.meshes) == sum(len(m.mesh.triangles) for m in b.meshes)
+
+
+def test_export_reports_progress_and_can_be_cancelled(empty):
+    add_camera()
+    add_sun(30)
+    rock = add_box("Rock", 0.2)
+    for i in range(2500):
+        dup = rock.copy()
+        dup.location = (0.3 * (i % 50), 0.3 * (i // 50), 0)
+        bpy.context.scene.collection.objects.link(dup)
+    seen = []
+    scene, info = export_current(progress=lambda f, text: seen.append(f))
+    assert len(seen) >= 3 and seen[-1] == 1.0 and info.meshes_evaluated == 1
+    calls = []
+
+    def stop():
+        calls.append(1)
+        return len(calls) >= 2
+
+    with pytest.raises(export.ExportCancelled):
+        export_current(test_break=stop)
+    assert len(calls) == 2  # polled every thousand instances, stopped at the second poll
