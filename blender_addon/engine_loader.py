@@ -12,10 +12,15 @@ Where the engine comes from, first found wins:
    (so editable installs' ``.pth`` hooks work);
 3. the ``PHOTIC_SITE_PACKAGES`` environment variable (``os.pathsep``-separated directories).
 
-Directories are appended, so Blender's own modules keep precedence. The engine never imports
-embreex; if it did, a distribution Blender linking the system Embree would need
-``RTLD_DEEPBIND`` for it, and that flag must not be used for the engine's core itself (with it,
-the core's C++ runtime symbols bind privately and Blender 3.4 aborts at exit).
+Directories are appended, so Blender's own modules keep precedence.
+
+Embree: the engine's core links the system Embree 3, as Debian's Blender does, so it imports
+normally (with ``RTLD_DEEPBIND`` its C++ runtime symbols would bind privately and Blender 3.4
+aborts at exit). embreex, which bundles Embree 4 under the same symbol names, is not needed by
+the add-on, but trimesh (used for the closedness check of water meshes) imports it when it is
+installed, and its ray calls then crash in a Blender that already holds the system Embree 3
+(``RTLD_DEEPBIND`` does not help: "inputs are from different devices"). In such a process
+embreex is therefore blocked before anything imports it; trimesh falls back to its own code.
 """
 from __future__ import annotations
 
@@ -49,12 +54,23 @@ def add_search_paths() -> None:
     importlib.invalidate_caches()
 
 
+def _system_embree_loaded() -> bool:
+    """True when the process already maps a shared Embree 3 library (a distribution Blender)."""
+    try:
+        with open("/proc/self/maps") as maps:
+            return any("libembree3" in line for line in maps)
+    except OSError:
+        return False
+
+
 def load_engine():
     """The ``photic`` package with its compiled core, or None (see ``engine_error``)."""
     global _engine, _error
     if _engine is not None or _error is not None:
         return _engine
     try:
+        if _system_embree_loaded() and "embreex" not in sys.modules:
+            sys.modules["embreex"] = None  # see the module docstring
         try:
             importlib.import_module("photic._core")
         except ImportError:

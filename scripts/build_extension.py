@@ -26,6 +26,7 @@ Install the zip with Edit > Preferences > Get Extensions > Install from Disk, or
 from __future__ import annotations
 
 import argparse
+import fcntl
 import importlib.metadata
 import re
 import shutil
@@ -118,7 +119,10 @@ def stage_addon(stage: Path, wheels: list[Path]) -> dict:
 def build(out: Path, wheel_cache: Path | None = None) -> Path:
     out = out.resolve()
     work = ROOT / "build" / "extension"
-    with tempfile.TemporaryDirectory() as tmp:
+    work.mkdir(parents=True, exist_ok=True)
+    # One build at a time: concurrent runs (two test sessions) would share the CMake folder.
+    with open(work / ".lock", "w") as lock, tempfile.TemporaryDirectory() as tmp:
+        fcntl.flock(lock, fcntl.LOCK_EX)
         tmp = Path(tmp)
         engine_wheel = build_engine_wheel(tmp / "engine", work / "cmake")
         deps = fetch_dependency_wheels((wheel_cache or tmp / "wheels").resolve())
