@@ -25,8 +25,14 @@ Then, for example:
 
 Without saved preferences (nothing written to Blender's user config), enable it per run:
 
-    BLENDER_USER_SCRIPTS=<scripts> blender -b FILE.blend --addons photic_blender -E PHOTIC \\
+    BLENDER_USER_SCRIPTS=<scripts> blender -b --addons photic_blender FILE.blend -E PHOTIC \\
         -o /tmp/out/frame_#### -F OPEN_EXR_MULTILAYER -f 1
+
+Blender handles its arguments in order: ``--addons`` before anything needing the add-on
+(``-E PHOTIC``, a ``--python-expr`` using ``scene.photic``, ``-f``; before the .blend file it
+also avoids the "Engine 'PHOTIC' not available" note when the file is read), and ``-o``/``-F``
+before ``-f``. That writes ``/tmp/out/frame_0001.exr`` (multilayer: Combined and the Photic
+passes) and ``frame_0001_radiometers.csv``/``.json`` beside it.
 """
 from __future__ import annotations
 
@@ -156,7 +162,7 @@ def main(argv=None) -> int:
         print(f"not enabled: pass --enable, or add '--addons {MODULE}' to each blender command line")
     prefix = "" if args.scripts is None else f"BLENDER_USER_SCRIPTS={scripts} "
     addons = "" if args.enable else f"--addons {MODULE} "
-    print(f"render with: {prefix}blender -b FILE.blend {addons}-E PHOTIC -o //render/frame_#### -f 1")
+    print(f"render with: {prefix}blender -b {addons}FILE.blend -E PHOTIC -o //render/frame_#### -f 1")
     return 0
 
 
