@@ -123,7 +123,9 @@ class _Exporter:
         self.progress = progress or (lambda f, text: None)
         self.test_break = test_break or (lambda: False)
         self.info = ExportInfo()
-        self.props = self.bscene.photic
+        # Photic settings are read from the original data-blocks: Blender does not always
+        # re-evaluate the depsgraph when only an add-on property changed.
+        self.props = self.bscene.original.photic
         try:
             self.bands = bandmod.scene_bands(self.props)
         except bandmod.BandError as exc:
@@ -152,7 +154,7 @@ class _Exporter:
         if name in self.materials:
             return name
         owner = f"Material '{mat.name}'"
-        p = getattr(mat, "photic", None)
+        p = getattr(getattr(mat, "original", mat), "photic", None)
         if p is not None and p.use_override:
             refl = per_band(owner, p.reflectance, p.reflectance_bands, "Reflectance",
                             "photic.reflectance", self.bands, "reflectance", hi=1.0)
@@ -241,7 +243,7 @@ class _Exporter:
     # -- water -------------------------------------------------------------------------------
     def iops(self, obj):
         S = self.photic.scene
-        p = obj.photic
+        p = obj.original.photic
         owner = _obj(obj.name)
         a = per_band(owner, p.absorption, p.absorption_bands, "Photic > Absorption",
                      "photic.absorption", self.bands, "absorption coefficient")
@@ -258,11 +260,21 @@ class _Exporter:
                                   f"is {value}")
         scattering = [S.ScatteringComponent(b, S.PhaseFunction(p.phase_function, params))] \
             if np.any(b > 0) else []
+        if p.iop_source == "PURE_WATER":
+            water = self.photic.water
+            try:
+                a = a + np.array([water.pure_water_absorption(c, w) for _, c, w in self.bands])
+            except ValueError as exc:
+                raise ExportError(owner, "Photic > IOPs (photic.iop_source)",
+                                  f"pure water: {exc}; choose bands within it or give the "
+                                  f"coefficients") from None
+            b_w = np.array([water.pure_water_scattering(c, w) for _, c, w in self.bands])
+            scattering.insert(0, S.ScatteringComponent(b_w, S.PhaseFunction("pure_water")))
         return S.IOPs(a, scattering)
 
     def add_water_body(self, obj, key, matrix, index):
         S = self.photic.scene
-        p = obj.photic
+        p = obj.original.photic
         owner = _obj(obj.name)
         data = self.mesh_data(obj, key)
         if data is None or len(data[1]) == 0:
@@ -289,7 +301,7 @@ class _Exporter:
         self.info.triangles += len(t)
 
     def _ior(self, obj) -> float:
-        ior = blender_float(obj.photic.ior)
+        ior = blender_float(obj.original.photic.ior)
         if not (math.isfinite(ior) and 1.0 <= ior <= 2.0):
             raise ExportError(_obj(obj.name), "Photic > Refractive Index (photic.ior)",
                               f"is {ior}, must be in [1, 2]")
@@ -297,7 +309,7 @@ class _Exporter:
 
     def add_water_surface(self, obj, key, matrix):
         S = self.photic.scene
-        p = obj.photic
+        p = obj.original.photic
         owner = _obj(obj.name)
         m = np.asarray(matrix, float)
         if p.surface_shape == "FLAT":
@@ -330,7 +342,7 @@ class _Exporter:
     # -- radiometers -------------------------------------------------------------------------
     def add_radiometer(self, obj, matrix):
         S = self.photic.scene
-        p = obj.photic
+        p = obj.original.photic
         m = np.asarray(matrix, float)
         direction = -m[:3, 2]
         if not np.linalg.norm(direction) > 0:
@@ -342,7 +354,7 @@ class _Exporter:
 
     def add_radiometer_array(self, obj, key, matrix):
         S = self.photic.scene
-        p = obj.photic
+        p = obj.original.photic
         owner = _obj(obj.name)
         m = np.asarray(matrix, float)
         quantities = [q for q in self.photic.scene.QUANTITIES if q in p.quantities]
@@ -431,7 +443,7 @@ class _Exporter:
         world = self.bscene.world
         if world is None:
             return S.Sky("black")
-        p = world.photic
+        p = world.original.photic
         owner = f"World '{world.name}'"
         if p.sky_model == "BLACK":
             return S.Sky("black")

@@ -59,6 +59,14 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
                        description="What the object is to Photic")
 
     # Water (bodies and surfaces)
+    iop_source: EnumProperty(
+        name="IOPs", default="VALUES",
+        items=[("VALUES", "Coefficients", "Absorption and scattering as given below"),
+               ("PURE_WATER", "Pure Water + Additions",
+                "Pure water (absorption: Pope & Fry 1997, averaged over each band; scattering: "
+                "0.00288 (wavelength/500 nm)^-4.32 per m with the pure-water phase function) "
+                "plus the absorption and scattering given below (e.g. of particles)")],
+        description="Where the water's absorption and scattering come from")
     absorption: FloatProperty(
         name="Absorption a", default=0.1, min=0.0, soft_max=10.0, precision=4,
         description="Absorption coefficient a (m^-1), the same in every band unless "

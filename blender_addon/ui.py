@@ -120,6 +120,7 @@ class PHOTIC_PT_object(PhoticPanel, bpy.types.Panel):
         p = context.object.photic
         layout.prop(p, "role")
         if p.role in {"WATER_BODY", "WATER_SURFACE"}:
+            layout.prop(p, "iop_source")
             col = layout.column(align=True)
             col.prop(p, "absorption")
             col.prop(p, "absorption_bands")

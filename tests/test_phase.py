@@ -105,3 +105,18 @@ def test_fournier_forand_parameters_from_backscatter():
     psi = np.concatenate([np.radians(np.logspace(-6, 0, 20000)), np.linspace(np.radians(1.0001), np.pi, 20000)])
     n, mu = phase.ff_parameters(0.0183)
     assert 2 * np.pi * np.trapz(phase.fournier_forand(psi, n, mu) * np.sin(psi), psi) == pytest.approx(1.0, abs=2e-3)
+
+
+def test_pure_water_iops_spot_values():
+    """Pope & Fry 1997 table values and the Morel/Smith & Baker power law."""
+    from photic.water import pure_water_absorption, pure_water_scattering
+    assert pure_water_absorption(440.0) == pytest.approx(0.00635, abs=1e-9)
+    assert pure_water_absorption(550.0) == pytest.approx(0.0565, abs=1e-9)
+    assert pure_water_absorption(401.25) == pytest.approx((0.00663 + 0.00579) / 2, abs=1e-9)
+    # a band average lies between the table's extremes over the band
+    a = pure_water_absorption(550.0, 60.0)
+    assert pure_water_absorption(520.0) < a < pure_water_absorption(580.0)
+    assert pure_water_scattering(500.0) == pytest.approx(0.00288)
+    assert pure_water_scattering(400.0) == pytest.approx(0.0076, rel=0.01)
+    with pytest.raises(ValueError, match="outside the Pope & Fry"):
+        pure_water_absorption(750.0)
