@@ -138,8 +138,9 @@ def import_scene(scene, bscene=None, collection=None) -> dict:
                 obj = _mesh_object(w.name, v, [(0, 1, 2), (0, 2, 3)], collection)
                 obj.location.z = s.z
                 obj.photic.surface_shape = "FLAT"
-            else:
-                obj = _mesh_object(w.name, s.mesh.vertices, s.mesh.triangles, collection)
+            else:  # a patch, given or generated from a wave model
+                mesh = s.patch()[0]
+                obj = _mesh_object(w.name, mesh.vertices, mesh.triangles, collection)
                 obj.photic.surface_shape = "MESH"
             obj.photic.role = "WATER_SURFACE"
             if w.bottom_depth is not None:

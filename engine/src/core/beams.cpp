@@ -96,35 +96,41 @@ void Scene::build_beams(const Vec3& sun_direction, int threads) {
         }
     }
 
-    // Source triangles: the ocean patch (shared vertex normals, seams averaged across the
-    // period) and the sun-facing faces of closed water meshes (face normals).
+    // Source triangles: the ocean patch (the given vertex normals, or shared vertex normals
+    // with the seams averaged across the period) and the sun-facing faces of closed water
+    // meshes (face normals).
     std::vector<SourceTri> src;
     if (ocean_water >= 0 && !ocean_flat) {
         size_t nv = patch_vertices.size() / 3, nt = patch_triangles.size() / 3;
         auto V = [&](size_t i) { return Vec3(patch_vertices[3 * i], patch_vertices[3 * i + 1], patch_vertices[3 * i + 2]); };
         std::vector<Vec3> vn(nv);
-        // Vertices that are the same point of the periodic surface share one normal.
-        std::map<std::pair<long, long>, std::vector<size_t>> same;
-        double qx = patch_lx * 1e-7, qy = patch_ly * 1e-7;
-        for (size_t i = 0; i < nv; ++i) {
-            Vec3 p = V(i);
-            double fx = std::fmod(p.x - patch_x0, patch_lx); if (fx < 0) fx += patch_lx;
-            double fy = std::fmod(p.y - patch_y0, patch_ly); if (fy < 0) fy += patch_ly;
-            long kx = std::lround(fx / qx), ky = std::lround(fy / qy);
-            if (kx >= std::lround(patch_lx / qx)) kx = 0;
-            if (ky >= std::lround(patch_ly / qy)) ky = 0;
-            same[{kx, ky}].push_back(i);
-        }
-        for (size_t t = 0; t < nt; ++t) {
-            const uint32_t* tri = &patch_triangles[3 * t];
-            Vec3 c = cross(V(tri[1]) - V(tri[0]), V(tri[2]) - V(tri[0]));  // area weighted
-            if (c.z < 0) c = -c;
-            for (int j = 0; j < 3; ++j) vn[tri[j]] += c;
-        }
-        for (auto& [key, ids] : same) {
-            Vec3 sum;
-            for (size_t i : ids) sum += vn[i];
-            for (size_t i : ids) vn[i] = normalize(sum);
+        if (patch_normals.size() == patch_vertices.size()) {  // given (exact) normals
+            for (size_t i = 0; i < nv; ++i)
+                vn[i] = normalize(Vec3(patch_normals[3 * i], patch_normals[3 * i + 1], patch_normals[3 * i + 2]));
+        } else {
+            // Vertices that are the same point of the periodic surface share one normal.
+            std::map<std::pair<long, long>, std::vector<size_t>> same;
+            double qx = patch_lx * 1e-7, qy = patch_ly * 1e-7;
+            for (size_t i = 0; i < nv; ++i) {
+                Vec3 p = V(i);
+                double fx = std::fmod(p.x - patch_x0, patch_lx); if (fx < 0) fx += patch_lx;
+                double fy = std::fmod(p.y - patch_y0, patch_ly); if (fy < 0) fy += patch_ly;
+                long kx = std::lround(fx / qx), ky = std::lround(fy / qy);
+                if (kx >= std::lround(patch_lx / qx)) kx = 0;
+                if (ky >= std::lround(patch_ly / qy)) ky = 0;
+                same[{kx, ky}].push_back(i);
+            }
+            for (size_t t = 0; t < nt; ++t) {
+                const uint32_t* tri = &patch_triangles[3 * t];
+                Vec3 c = cross(V(tri[1]) - V(tri[0]), V(tri[2]) - V(tri[0]));  // area weighted
+                if (c.z < 0) c = -c;
+                for (int j = 0; j < 3; ++j) vn[tri[j]] += c;
+            }
+            for (auto& [key, ids] : same) {
+                Vec3 sum;
+                for (size_t i : ids) sum += vn[i];
+                for (size_t i : ids) vn[i] = normalize(sum);
+            }
         }
         for (size_t t = 0; t < nt; ++t) {
             const uint32_t* tri = &patch_triangles[3 * t];

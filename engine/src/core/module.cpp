@@ -7,6 +7,7 @@
 
 namespace py = pybind11;
 using namespace photic;
+namespace photic { void bind_rough_interface(py::module_& m); }  // bind_rough_interface.cpp
 
 namespace {
 
@@ -37,6 +38,7 @@ py::dict counters_dict(const Counters& c) {
 PYBIND11_MODULE(_core, m) {
     m.doc() = "Photic compiled core: Embree geometry, phase functions and the path tracer";
     m.attr("MAX_BANDS") = kMaxBands;
+    bind_rough_interface(m);
     m.attr("COMPONENTS") = py::make_tuple("total", "beam_surface", "beam_volume", "path", "beam_direct");
 
     m.def("fresnel", [](double cos_i, double n1, double n2) { return fresnel_unpolarized(cos_i, n1, n2); },
@@ -190,12 +192,25 @@ PYBIND11_MODULE(_core, m) {
             s.ocean_water = water; s.ocean_flat = true; s.ocean_z = z;
         })
         .def("set_ocean_patch", [](Scene& s, int water, FArray v, UArray t, double x0, double y0,
-                                   double lx, double ly, double zmean) {
+                                   double lx, double ly, double zmean, std::optional<FArray> normals) {
             s.ocean_water = water; s.ocean_flat = false; s.ocean_z = zmean;
             s.patch_vertices.assign(v.data(), v.data() + v.size());
             s.patch_triangles.assign(t.data(), t.data() + t.size());
             s.patch_x0 = x0; s.patch_y0 = y0; s.patch_lx = lx; s.patch_ly = ly;
-        })
+            s.patch_normals.clear();
+            if (normals) {
+                const FArray& n = *normals;
+                if (n.ndim() != 2 || n.shape(1) != 3 || n.size() != v.size())
+                    throw std::invalid_argument("normals must be an (N, 3) array, one per vertex");
+                for (py::ssize_t i = 0; i < n.shape(0); ++i)
+                    if (!(n.at(i, 2) > 0.0f))
+                        throw std::invalid_argument("patch normals must point up (z > 0)");
+                s.patch_normals.assign(n.data(), n.data() + n.size());
+            }
+        }, py::arg("water"), py::arg("vertices"), py::arg("triangles"), py::arg("x0"), py::arg("y0"),
+           py::arg("lx"), py::arg("ly"), py::arg("zmean"), py::arg("normals") = py::none(),
+           "Periodic height-field ocean patch; optional exact vertex normals for the beams "
+           "(default: area-weighted normals of the mesh, averaged across the seams).")
         .def("set_bottom", [](Scene& s, double z, int material) {
             s.has_bottom = true; s.bottom_z = z; s.bottom_material = material;
         })

@@ -145,6 +145,7 @@ public:
     double ocean_z = 0.0;             // flat surface height (or patch mean)
     std::vector<float> patch_vertices;
     std::vector<uint32_t> patch_triangles;
+    std::vector<float> patch_normals;  // optional unit vertex normals (air side); empty: from the mesh
     double patch_x0 = 0, patch_y0 = 0, patch_lx = 1, patch_ly = 1, patch_zmin = 0, patch_zmax = 0;
     bool has_bottom = false;
     double bottom_z = 0.0;

@@ -82,13 +82,15 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
             if surf.kind == "flat":
                 core.set_ocean_flat(wi, float(surf.z))
                 zmean = float(surf.z)
-            else:
-                v = np.asarray(surf.mesh.vertices, np.float64)
-                tri = _oriented_up(v, np.asarray(surf.mesh.triangles, np.int64))
+            else:  # a patch, given or generated from a wave model
+                mesh, period, normals = surf.patch()
+                v = np.asarray(mesh.vertices, np.float64)
+                tri = _oriented_up(v, np.asarray(mesh.triangles, np.int64))
                 zmean = float(surf.z)
                 core.set_ocean_patch(wi, v.astype(np.float32), tri.astype(np.uint32),
                                      float(v[:, 0].min()), float(v[:, 1].min()),
-                                     float(surf.period[0]), float(surf.period[1]), zmean)
+                                     float(period[0]), float(period[1]), zmean,
+                                     None if normals is None else normals.astype(np.float32))
             if w.bottom_depth is not None:
                 core.set_bottom(zmean - float(w.bottom_depth), mat_index[w.bottom_material])
 

@@ -224,3 +224,64 @@ def loglog_panels(panels: list[dict], size=(480, 380)) -> np.ndarray:
                 draw_text(img, lx + 26, ly, label, color)
                 ly += 16
     return img
+
+
+def _tick_label(v: float) -> str:
+    return f"{v:g}"
+
+
+def linear_panels(panels: list[dict], size=(480, 380)) -> np.ndarray:
+    """Line plots on linear axes side by side, as an (H, W, 3) uint8 image.
+
+    Each panel is ``{"title", "xlabel", "ylabel", "series": [(label, xs, ys, rgb)], "xlim",
+    "ylim", "xticks", "yticks", "legend": bool}``; limits default to the data's range and
+    ticks to five intervals. The legend sits in the top left corner.
+    """
+    pw, ph = size
+    img = np.full((ph, pw * len(panels), 3), 255, np.uint8)
+    black, grey = (0, 0, 0), (200, 200, 200)
+    for k, p in enumerate(panels):
+        ox = k * pw
+        left, right, top, bottom = ox + 60, ox + pw - 20, 34, ph - 46
+        xs_all = np.concatenate([np.asarray(s[1], float) for s in p["series"]])
+        ys_all = np.concatenate([np.asarray(s[2], float) for s in p["series"]])
+        x0, x1 = p.get("xlim", (float(xs_all.min()), float(xs_all.max())))
+        y0, y1 = p.get("ylim", (float(ys_all.min()), float(ys_all.max())))
+        if x1 <= x0:
+            x1 = x0 + 1.0
+        if y1 <= y0:
+            y1 = y0 + 1.0
+
+        def X(v):
+            return left + (np.asarray(v, float) - x0) / (x1 - x0) * (right - left)
+
+        def Y(v):
+            v = np.clip(np.asarray(v, float), y0, y1)
+            return bottom - (v - y0) / (y1 - y0) * (bottom - top)
+
+        for v in p.get("xticks", np.linspace(x0, x1, 6)):
+            x = X(v)
+            draw_line(img, x, top, x, bottom, grey)
+            draw_line(img, x, bottom, x, bottom + 6, black)
+            draw_text(img, int(x), bottom + 10, _tick_label(v), black, anchor="center")
+        for v in p.get("yticks", np.linspace(y0, y1, 6)):
+            y = Y(v)
+            draw_line(img, left, y, right, y, grey)
+            draw_line(img, left - 6, y, left, y, black)
+            draw_text(img, left - 9, int(y) - 5, _tick_label(v), black, anchor="right")
+        draw_line(img, left, top, left, bottom, black)
+        draw_line(img, left, bottom, right, bottom, black)
+        for label, xs, ys, color in p["series"]:
+            pts = [(X(x), Y(y)) for x, y in zip(xs, ys) if np.isfinite(x) and np.isfinite(y)]
+            for (a, b), (c, d) in zip(pts, pts[1:]):
+                draw_line(img, a, b, c, d, color, width=2)
+        draw_text(img, (left + right) // 2, 10, p.get("title", ""), black, anchor="center")
+        draw_text(img, (left + right) // 2, ph - 20, p.get("xlabel", ""), black, anchor="center")
+        draw_text(img, ox + 6, top - 20, p.get("ylabel", ""), black)
+        if p.get("legend", False):
+            ly, lx = top + 8, left + 10
+            for label, _, _, color in p["series"]:
+                draw_line(img, lx, ly + 5, lx + 20, ly + 5, color, width=3)
+                draw_text(img, lx + 26, ly, label, color)
+                ly += 16
+    return img

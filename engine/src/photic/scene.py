@@ -50,7 +50,7 @@ PHASE_FUNCTION_PARAMS: dict[str, tuple[str, ...]] = {
 QUANTITIES = ("Ed", "Eu", "Eo", "Eod", "Eou", "radiance", "radiance_distribution")
 
 WATER_TYPES = ("mesh", "ocean")
-SURFACE_KINDS = ("flat", "patch")
+SURFACE_KINDS = ("flat", "patch", "waves")
 SKY_TYPES = ("black", "uniform", "cardioidal")
 CAMERA_TYPES = ("perspective", "orthographic")
 FILTER_TYPES = ("box", "gaussian")
@@ -353,15 +353,17 @@ class MeshObject(_ArrayEq):
 class OceanSurface(_ArrayEq):
     """The surface of an ocean.
 
-    ``kind`` is ``"flat"`` (the plane ``z``) or ``"patch"`` (the height-field ``mesh``
+    ``kind`` is ``"flat"`` (the plane ``z``), ``"patch"`` (the height-field ``mesh``
     repeated with ``period`` (Lx, Ly) in m; ``z`` is then the mean height of its vertices,
-    computed here).
+    computed here) or ``"waves"`` (a ``photic.waves.WaveModel`` in ``waves``, made into a
+    patch over [0, Lx] x [0, Ly] at mean level ``z`` (m) by :meth:`patch`).
     """
 
     kind: str
     z: float = 0.0
     mesh: TriangleMesh | None = None
     period: tuple[float, float] | None = None
+    waves: Any = None  # photic.waves.WaveModel for kind "waves"
 
     def __post_init__(self):
         if self.period is not None and not isinstance(self.period, str):
@@ -374,6 +376,19 @@ class OceanSurface(_ArrayEq):
             v = self.mesh.vertices
             if isinstance(v, np.ndarray) and v.ndim == 2 and v.shape[1] == 3 and len(v):
                 self.z = float(np.mean(v[:, 2]))
+
+    def patch(self) -> tuple[TriangleMesh, tuple[float, float], np.ndarray | None]:
+        """(mesh, period, vertex normals or None) of a ``"patch"`` or ``"waves"`` surface.
+
+        For ``"waves"`` the mesh is generated from the model (cached) and the normals are the
+        model's exact ones; a ``"patch"`` has no normals (the core derives them from the mesh).
+        """
+        if self.kind != "waves":
+            return self.mesh, self.period, None
+        from .waves import surface_patch
+
+        vertices, triangles, normals = surface_patch(self.waves, float(self.z))
+        return TriangleMesh(vertices, triangles), tuple(self.waves.patch_size_m), normals
 
 
 @dataclass(eq=False)
@@ -802,11 +817,26 @@ def _validate_surface(label: str, surface: Any) -> None:
         raise SceneError(label, "surface", "an ocean needs a surface (OceanSurface)")
     _check_choice(label, "surface.kind", surface.kind, SURFACE_KINDS)
     _check_real(label, "surface.z", surface.z)
-    if surface.kind == "flat":
+    if surface.kind != "waves" and surface.waves is not None:
+        raise SceneError(label, "surface.waves", "only allowed for surface kind 'waves'")
+    if surface.kind in ("flat", "waves"):
         for attr in ("mesh", "period"):
             if getattr(surface, attr) is not None:
                 raise SceneError(label, f"surface.{attr}", "only allowed for surface kind "
                                                            "'patch'")
+    if surface.kind == "waves":
+        from .waves import SurfaceFoldsError, WaveModel
+
+        if not isinstance(surface.waves, WaveModel):
+            raise SceneError(label, "surface.waves", f"a photic.waves.WaveModel is required, "
+                                                     f"got {_show(surface.waves)}")
+        surface.waves.validate(label, "surface.")
+        try:
+            surface.patch()
+        except SurfaceFoldsError as exc:
+            raise SceneError(label, "surface.choppiness", str(exc)) from None
+        return
+    if surface.kind == "flat":
         return
     _check_mesh(label, "surface.", surface.mesh)
     period = surface.period
@@ -1157,10 +1187,15 @@ def _read_water(label: str, d: dict, nbands: int, base_dir: Path) -> WaterBody:
         return WaterBody(d["name"], "mesh", iops, ior, mesh=_read_mesh(label, d, base_dir))
     _only_for(label, d, ("vertices", "triangles", "file", "transform"), "water of type 'mesh'")
     s = d["surface"]
-    if s["kind"] == "flat":
+    if s["kind"] != "waves":
+        _only_for(label, s, _WAVE_KEYS, "surface kind 'waves'", "surface.")
+    if s["kind"] in ("flat", "waves"):
         _only_for(label, s, ("vertices", "triangles", "file", "transform", "period"),
                   "surface kind 'patch'", "surface.")
+    if s["kind"] == "flat":
         surface = OceanSurface("flat", float(s.get("z", 0.0)))
+    elif s["kind"] == "waves":
+        surface = OceanSurface("waves", float(s.get("z", 0.0)), waves=_read_wave_model(s))
     else:
         _only_for(label, s, ("z",), "surface kind 'flat' (a patch's z is the mean height of "
                                     "its vertices)", "surface.")
@@ -1170,6 +1205,50 @@ def _read_water(label: str, d: dict, nbands: int, base_dir: Path) -> WaterBody:
     return WaterBody(d["name"], "ocean", iops, ior, surface=surface,
                      bottom_depth=float(bottom["depth"]) if bottom else None,
                      bottom_material=bottom["material"] if bottom else None)
+
+
+# Keys of a "waves" surface: the fields of photic.waves.WaveModel.
+_WAVE_KEYS = ("spectrum", "wind_speed", "wind_direction_deg", "patch_size_m", "resolution",
+              "seed", "time_s", "choppiness", "water_depth_m", "fetch_m", "gamma", "spreading",
+              "spreading_s", "sinusoids")
+_SINUSOID_KEYS = ("amplitude_m", "wavelength_m", "direction_deg", "phase_rad")
+
+
+def _read_wave_model(s: dict) -> Any:
+    from .waves import WaveModel
+
+    values = {key: s[key] for key in _WAVE_KEYS if key in s}
+    if "sinusoids" in values:
+        values["sinusoids"] = tuple(
+            (float(c["amplitude_m"]), float(c["wavelength_m"]),
+             float(c.get("direction_deg", 0.0)), float(c.get("phase_rad", 0.0)))
+            for c in values["sinusoids"])
+    for key in ("patch_size_m", "resolution"):
+        if key in values:
+            values[key] = tuple(values[key])
+    return WaveModel(**values)
+
+
+def _wave_model_to_dict(model: Any) -> dict:
+    d: dict[str, Any] = {}
+    for key in _WAVE_KEYS:
+        value = getattr(model, key)
+        if key == "sinusoids":
+            if model.spectrum != "sinusoids":
+                continue
+            value = [dict(zip(_SINUSOID_KEYS, map(float, c))) for c in value]
+        elif key in ("patch_size_m",):
+            value = [float(x) for x in value]
+        elif key == "resolution":
+            value = [int(x) for x in value]
+        elif key == "seed":
+            value = int(value)
+        elif key in ("fetch_m", "water_depth_m") and value is None:
+            continue
+        elif isinstance(value, numbers.Real) and not isinstance(value, bool):
+            value = float(value)
+        d[key] = value
+    return d
 
 
 def _read_sky(d: dict, nbands: int) -> Sky:
@@ -1291,6 +1370,8 @@ def _water_to_dict(w: WaterBody) -> dict:
     s = w.surface
     if s.kind == "flat":
         d["surface"] = {"kind": "flat", "z": float(s.z)}
+    elif s.kind == "waves":
+        d["surface"] = {"kind": "waves", "z": float(s.z), **_wave_model_to_dict(s.waves)}
     else:
         d["surface"] = {"kind": "patch", **_mesh_to_dict(s.mesh),
                         "period": [float(p) for p in s.period]}
