@@ -358,6 +358,40 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             d = nd;
             for (int k = 0; k < nb; ++k) beta.v[k] *= m.reflectance.v[k];
             o = xo;
+        } else if (h.id == -3 && ocean_rough) {
+            // The rough ocean surface: a microfacet BSDF around the geometric normal (which
+            // points into the air). Next-event estimation of the sun here gives glint from above
+            // and the sun seen through the surface from below; paths sampled on into the sun
+            // are then not counted again (sun_covered).
+            const Water& w = waters[h.index];
+            if (medium >= 0) flush(w);
+            const Frame fr(h.n);
+            const Vec3 wi = fr.to_local(-d);
+            if (has_sun && !hybrid) {
+                double u1 = rng.uniform(), u2 = rng.uniform();
+                Vec3 ws = sample_sun(u1, u2);
+                Vec3 wsl = fr.to_local(ws);
+                if (wsl.z > 0.0) {
+                    double f = ocean_bsdf.eval(wi, wsl, RoughInterface::kRadiance);
+                    if (f > 0.0) {
+                        c.shadow_rays++;
+                        if (!occluded(x + h.n * off, ws)) {
+                            double g = f * wsl.z / sun_pdf();
+                            for (int k = 0; k < nb; ++k) out.path.v[k] += beta.v[k] * sun_radiance.v[k] * g;
+                        }
+                    }
+                }
+            }
+            double u1 = rng.uniform(), u2 = rng.uniform(), u3 = rng.uniform();
+            RoughSample rs = ocean_bsdf.sample(wi, u1, u2, u3, RoughInterface::kRadiance);
+            if (!rs.valid || !(rs.weight > 0.0)) return out;
+            for (int k = 0; k < nb; ++k) beta.v[k] *= rs.weight;
+            bool to_air = rs.wo.z > 0.0;
+            d = fr.to_world(rs.wo);
+            o = x + h.n * (to_air ? off : -off);
+            medium = to_air ? -1 : h.index;
+            sun_covered = has_sun && !hybrid;
+            beam_covered = false;
         } else {
             // Water boundary with outward normal h.n.
             const Water& w = waters[h.index];

@@ -188,6 +188,14 @@ PYBIND11_MODULE(_core, m) {
             s.meshes.push_back(std::move(r));
             return int(s.meshes.size()) - 1;
         }, py::arg("vertices"), py::arg("triangles"), py::arg("kind"), py::arg("index"))
+        .def("set_ocean_roughness", [](Scene& s, double sigma2_up, double sigma2_cross, double wind_azimuth) {
+            if (s.ocean_water < 0) throw std::invalid_argument("set the ocean surface first");
+            if (!(sigma2_up > 0.0) || !(sigma2_cross > 0.0))
+                throw std::invalid_argument("slope variances must be > 0");
+            s.ocean_bsdf = RoughInterface(sigma2_up, sigma2_cross, wind_azimuth, s.waters.at(s.ocean_water).ior);
+            s.ocean_rough = true;
+        }, py::arg("sigma2_up"), py::arg("sigma2_cross"), py::arg("wind_azimuth") = 0.0,
+           "Sub-pixel roughness of the ocean surface: per-axis slope variances and the upwind azimuth (rad).")
         .def("set_ocean_flat", [](Scene& s, int water, double z) {
             s.ocean_water = water; s.ocean_flat = true; s.ocean_z = z;
         })

@@ -9,6 +9,7 @@
 #include "phase.h"
 #include "rng.h"
 #include "vec.h"
+#include "rough_interface.h"
 
 namespace photic {
 
@@ -141,6 +142,9 @@ public:
 
     // Ocean: water below a surface unbounded horizontally.
     int ocean_water = -1;             // -1: no ocean
+    // Sub-pixel roughness of the ocean surface (Cox-Munk microfacets), used by path tracing.
+    bool ocean_rough = false;
+    RoughInterface ocean_bsdf{1e-6, 1e-6};
     bool ocean_flat = true;
     double ocean_z = 0.0;             // flat surface height (or patch mean)
     std::vector<float> patch_vertices;

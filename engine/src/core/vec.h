@@ -36,6 +36,7 @@ struct Frame {
         t = Vec3(b, sign + n.y * n.y * a, -n.y);
     }
     Vec3 to_world(const Vec3& v) const { return s * v.x + t * v.y + n * v.z; }
+    Vec3 to_local(const Vec3& v) const { return Vec3(dot(v, s), dot(v, t), dot(v, n)); }
 };
 
 // Direction at polar cosine mu (with 1 - mu = x given separately for precision near mu = 1)

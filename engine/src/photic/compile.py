@@ -91,6 +91,8 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
                                      float(v[:, 0].min()), float(v[:, 1].min()),
                                      float(period[0]), float(period[1]), zmean,
                                      None if normals is None else normals.astype(np.float32))
+            if surf.roughness is not None:
+                core.set_ocean_roughness(*surf.slope_variances(float(w.ior)))
             if w.bottom_depth is not None:
                 core.set_bottom(zmean - float(w.bottom_depth), mat_index[w.bottom_material])
 

@@ -77,8 +77,14 @@ def resolve_integrator(scene: Scene) -> str:
     """'hybrid' or 'path': the scene's choice, 'auto' meaning hybrid when there is a sun."""
     choice = scene.settings.integrator
     if choice == "auto":
-        return "hybrid" if scene.sun is not None else "path"
+        return "hybrid" if scene.sun is not None and not rough_surfaces(scene) else "path"
     return choice
+
+
+def rough_surfaces(scene: Scene) -> list[str]:
+    """Names of the water bodies whose surface has sub-pixel roughness."""
+    return [w.name for w in scene.water
+            if w.surface is not None and getattr(w.surface, "roughness", None) is not None]
 
 
 def optical_depth_scale(scene: Scene) -> float:
@@ -162,6 +168,12 @@ class Renderer:
         scene.validate()
         st = scene.settings
         self.integrator = resolve_integrator(scene)
+        rough = rough_surfaces(scene)
+        if self.integrator == "hybrid" and rough:
+            raise SceneError("settings", "integrator",
+                             f"'hybrid' does not support the sub-pixel roughness of water "
+                             f"'{rough[0]}' yet (its beams do not spread by the rough BTDF): "
+                             f"use 'path' or 'auto'")
         self.forward_cone_deg = resolve_forward_cone(scene) if self.integrator == "hybrid" else 0.0
         self.scene = scene
         self.samples = int(st.samples if samples is None else samples)

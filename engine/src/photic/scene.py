@@ -31,7 +31,7 @@ import numpy as np
 __all__ = [
     "FORMAT_VERSION", "PHASE_FUNCTION_PARAMS", "QUANTITIES", "SceneError", "Band", "Material",
     "PhaseFunction", "ScatteringComponent", "IOPs", "TriangleMesh", "MeshObject",
-    "OceanSurface", "WaterBody", "Sun", "Sky", "Camera", "Radiometer", "RadiometerArray",
+    "OceanSurface", "SurfaceRoughness", "WaterBody", "Sun", "Sky", "Camera", "Radiometer", "RadiometerArray",
     "Settings", "Scene", "check_closed_mesh", "load_scene", "save_scene", "scene_schema",
 ]
 
@@ -350,6 +350,21 @@ class MeshObject(_ArrayEq):
 
 
 @dataclass(eq=False)
+class SurfaceRoughness(_ArrayEq):
+    """Sub-pixel roughness of a sea surface: Cox-Munk facet slopes for the wind speed.
+
+    ``wind_speed`` (m/s, the Cox-Munk wind at 12.5 m, within the 10 m wind for these purposes),
+    ``anisotropic``: upwind/crosswind variances (Cox-Munk 1954) instead of the isotropic total;
+    ``wind_direction_deg``: the direction the wind blows towards (degrees from +x towards +y);
+    None: the wave model's, else 0. For a ``"waves"`` surface the slope variance its grid
+    resolves is subtracted per axis (PHYSICS-NOTES 5.3), so roughness is not counted twice."""
+
+    wind_speed: float
+    anisotropic: bool = False
+    wind_direction_deg: float | None = None
+
+
+@dataclass(eq=False)
 class OceanSurface(_ArrayEq):
     """The surface of an ocean.
 
@@ -364,6 +379,7 @@ class OceanSurface(_ArrayEq):
     mesh: TriangleMesh | None = None
     period: tuple[float, float] | None = None
     waves: Any = None  # photic.waves.WaveModel for kind "waves"
+    roughness: SurfaceRoughness | None = None  # sub-pixel Cox-Munk roughness (path tracing)
 
     def __post_init__(self):
         if self.period is not None and not isinstance(self.period, str):
@@ -376,6 +392,22 @@ class OceanSurface(_ArrayEq):
             v = self.mesh.vertices
             if isinstance(v, np.ndarray) and v.ndim == 2 and v.shape[1] == 3 and len(v):
                 self.z = float(np.mean(v[:, 2]))
+
+    def slope_variances(self, ior: float) -> tuple[float, float, float]:
+        """(upwind, crosswind) sub-pixel slope variances and the upwind azimuth (rad) of the
+        roughness: Cox-Munk for the wind less what a wave model's grid resolves."""
+        from .surface import slope_variances
+        r = self.roughness
+        direction = r.wind_direction_deg
+        if direction is None:
+            direction = self.waves.wind_direction_deg if self.kind == "waves" else 0.0
+        resolved = (0.0, 0.0)
+        if self.kind == "waves":
+            from .waves import slope_variance_along
+            resolved = (slope_variance_along(self.waves, direction),
+                        slope_variance_along(self.waves, direction + 90.0))
+        s2u, s2c = slope_variances(float(r.wind_speed), bool(r.anisotropic), resolved)
+        return s2u, s2c, math.radians(direction)
 
     def patch(self) -> tuple[TriangleMesh, tuple[float, float], np.ndarray | None]:
         """(mesh, period, vertex normals or None) of a ``"patch"`` or ``"waves"`` surface.
@@ -819,6 +851,15 @@ def _validate_surface(label: str, surface: Any) -> None:
     _check_real(label, "surface.z", surface.z)
     if surface.kind != "waves" and surface.waves is not None:
         raise SceneError(label, "surface.waves", "only allowed for surface kind 'waves'")
+    r = surface.roughness
+    if r is not None:
+        if not isinstance(r, SurfaceRoughness):
+            raise SceneError(label, "surface.roughness", f"must be a SurfaceRoughness, got {_show(r)}")
+        _check_real(label, "surface.roughness.wind_speed", r.wind_speed, 0, 50)
+        if not isinstance(r.anisotropic, bool):
+            raise SceneError(label, "surface.roughness.anisotropic", f"must be true or false, got {_show(r.anisotropic)}")
+        if r.wind_direction_deg is not None:
+            _check_real(label, "surface.roughness.wind_direction_deg", r.wind_direction_deg)
     if surface.kind in ("flat", "waves"):
         for attr in ("mesh", "period"):
             if getattr(surface, attr) is not None:
@@ -1201,6 +1242,11 @@ def _read_water(label: str, d: dict, nbands: int, base_dir: Path) -> WaterBody:
                                     "its vertices)", "surface.")
         surface = OceanSurface("patch", mesh=_read_mesh(label, s, base_dir, "surface."),
                                period=tuple(float(p) for p in s["period"]))
+    if s.get("roughness") is not None:
+        r = s["roughness"]
+        surface.roughness = SurfaceRoughness(float(r["wind_speed"]), bool(r.get("anisotropic", False)),
+                                             None if r.get("wind_direction_deg") is None
+                                             else float(r["wind_direction_deg"]))
     bottom = d.get("bottom")
     return WaterBody(d["name"], "ocean", iops, ior, surface=surface,
                      bottom_depth=float(bottom["depth"]) if bottom else None,
@@ -1375,6 +1421,11 @@ def _water_to_dict(w: WaterBody) -> dict:
     else:
         d["surface"] = {"kind": "patch", **_mesh_to_dict(s.mesh),
                         "period": [float(p) for p in s.period]}
+    if s.roughness is not None:
+        d["surface"]["roughness"] = {"wind_speed": float(s.roughness.wind_speed),
+                                     "anisotropic": bool(s.roughness.anisotropic)}
+        if s.roughness.wind_direction_deg is not None:
+            d["surface"]["roughness"]["wind_direction_deg"] = float(s.roughness.wind_direction_deg)
     d["bottom"] = None if w.bottom_depth is None else {"depth": float(w.bottom_depth),
                                                        "material": w.bottom_material}
     return d

@@ -510,6 +510,20 @@ def slope_variance(model: WaveModel, axis: str | None = None) -> float:
     return float(np.sum(weight * energy))
 
 
+def slope_variance_along(model: WaveModel, azimuth_deg: float) -> float:
+    """Expected mean square slope along the horizontal direction at ``azimuth_deg`` (from +x
+    towards +y): ``sum (k.e)^2 Psi``; along the wind and across it these are the resolved
+    upwind and crosswind variances."""
+    model.validate()
+    if model.spectrum == "sinusoids":
+        kx, ky, h = amplitudes(model)
+        energy = np.abs(h) ** 2
+    else:
+        kx, ky, energy, _ = _grid_psi(model)
+    a = math.radians(azimuth_deg)
+    return float(np.sum((kx * math.cos(a) + ky * math.sin(a)) ** 2 * energy))
+
+
 def resolved_slope_variance(model: WaveModel) -> float:
     """sigma^2_resolved: the mean square slope (both axes) the grid resolves, i.e.
     :func:`slope_variance`. The sub-pixel roughness is what a Cox-Munk sigma^2 adds to it."""
