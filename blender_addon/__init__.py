@@ -26,7 +26,7 @@ try:
 except ImportError:  # a distribution Blender without numpy: use the engine's environment
     engine_loader.add_search_paths()
 
-from . import engine, operators, properties, ui  # noqa: E402
+from . import engine, operators, properties, ui, waves_preview  # noqa: E402
 
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory(
     properties.classes + operators.classes + (engine.PhoticRenderEngine,) + ui.classes)
@@ -36,9 +36,11 @@ def register():
     _register_classes()
     operators.register()
     engine.register()
+    waves_preview.register()
 
 
 def unregister():
+    waves_preview.unregister()
     engine.unregister()
     operators.unregister()
     _unregister_classes()

@@ -314,6 +314,11 @@ class _Exporter:
         m = np.asarray(matrix, float)
         if p.surface_shape == "FLAT":
             surface = S.OceanSurface("flat", z=float(m[2, 3]))
+        elif p.surface_shape == "WAVES":
+            from .waves_preview import frame_time, wave_model
+            surface = S.OceanSurface("waves", z=float(m[2, 3]),
+                                     waves=wave_model(self.photic, obj.original,
+                                                      frame_time(self.bscene)))
         else:
             data = self.mesh_data(obj, key)
             if data is None or len(data[1]) == 0:
@@ -327,6 +332,10 @@ class _Exporter:
                                                  "x and y")
             surface = S.OceanSurface("patch", mesh=S.TriangleMesh(world, t.astype(np.int64)),
                                      period=(float(extent[0]), float(extent[1])))
+        if p.use_roughness:
+            surface.roughness = S.SurfaceRoughness(
+                blender_float(p.wind_speed), bool(p.roughness_anisotropic),
+                blender_float(math.degrees(p.wind_direction)))
         bottom_depth = bottom_material = None
         if p.use_bottom:
             depth = blender_float(p.bottom_depth)

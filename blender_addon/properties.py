@@ -48,8 +48,10 @@ PHASE_FUNCTIONS = [
 ]
 
 
-def _deg(x: float) -> float:
-    return math.degrees(x)
+def _wave_update(self, context):
+    # Regenerate the viewport preview of a wave-model surface (imported late: needs numpy).
+    from . import waves_preview
+    waves_preview.update_object(self.id_data)
 
 
 class PhoticObjectProperties(bpy.types.PropertyGroup):
@@ -101,8 +103,52 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
         items=[("FLAT", "Flat", "A flat sea at the height of the object's origin, without end"),
                ("MESH", "Mesh Patch", "The evaluated mesh as a height field, repeated without "
                                       "end with its x and y extent as the period (the patch "
-                                      "must tile seamlessly)")],
-        description="How the water surface is shaped")
+                                      "must tile seamlessly)"),
+               ("WAVES", "Wave Model", "A wave patch generated from an ocean spectrum at the "
+                                       "frame's time, repeated without end; the object's mesh "
+                                       "shows it (regenerated when a wave setting or the frame "
+                                       "changes)")],
+        description="How the water surface is shaped", update=_wave_update)
+    wave_spectrum: EnumProperty(
+        name="Spectrum", default="pierson_moskowitz", update=_wave_update,
+        items=[("pierson_moskowitz", "Pierson-Moskowitz", "Fully developed wind sea"),
+               ("jonswap", "JONSWAP", "Fetch-limited wind sea (peak enhancement 3.3)"),
+               ("phillips", "Phillips", "Tessendorf's Phillips spectrum")],
+        description="Ocean wave spectrum of the wave model")
+    wind_speed: FloatProperty(name="Wind Speed", default=5.0, min=0.0, max=50.0, precision=2,
+                              update=_wave_update,
+                              description="Wind speed at 10 m above the sea (m/s): the wave "
+                                          "spectrum's and the Cox-Munk roughness's wind")
+    wind_direction: FloatProperty(name="Wind Direction", subtype="ANGLE", default=0.0,
+                                  update=_wave_update,
+                                  description="Direction the wind blows towards, from +X "
+                                              "towards +Y (degrees)")
+    wave_patch_size: FloatProperty(name="Patch Size", default=50.0, min=0.1, soft_max=1000.0,
+                                   unit="LENGTH", update=_wave_update,
+                                   description="Side of the square wave patch, its period (m)")
+    wave_resolution: IntProperty(name="Resolution", default=64, min=4, max=1024,
+                                 update=_wave_update,
+                                 description="Grid points per side of the wave patch")
+    wave_seed: IntProperty(name="Seed", default=0, min=0, update=_wave_update,
+                           description="Seed of the random wave amplitudes")
+    choppiness: FloatProperty(name="Choppiness", default=0.0, min=0.0, max=3.0,
+                              update=_wave_update,
+                              description="Horizontal (choppy) displacement factor "
+                                          "(dimensionless); 0: none. The surface must not fold")
+    fetch: FloatProperty(name="Fetch", default=50000.0, min=1.0, unit="LENGTH",
+                         update=_wave_update,
+                         description="JONSWAP: distance over which the wind has blown (m)")
+    wave_depth: FloatProperty(name="Water Depth", default=0.0, min=0.0, unit="LENGTH",
+                              update=_wave_update,
+                              description="Depth in the waves' dispersion relation (m); 0: "
+                                          "deep water")
+    use_roughness: BoolProperty(name="Sub-pixel Roughness", default=False,
+                                description="Cox-Munk facet slopes for the wind speed below "
+                                            "the resolved waves: glint and sky reflection "
+                                            "(path tracing)")
+    roughness_anisotropic: BoolProperty(name="Anisotropic", default=False,
+                                        description="Upwind and crosswind slope variances "
+                                                    "instead of the isotropic total")
     use_bottom: BoolProperty(name="Bottom", default=False,
                              description="A flat, opaque sea floor below the water surface")
     bottom_depth: FloatProperty(name="Bottom Depth", default=10.0, min=0.001, soft_max=1000.0,

@@ -135,6 +135,23 @@ class PHOTIC_PT_object(PhoticPanel, bpy.types.Panel):
             layout.prop(p, "ior")
         if p.role == "WATER_SURFACE":
             layout.prop(p, "surface_shape")
+            if p.surface_shape == "WAVES":
+                col = layout.column(align=True)
+                col.prop(p, "wave_spectrum")
+                if p.wave_spectrum == "jonswap":
+                    col.prop(p, "fetch")
+                col.prop(p, "wave_patch_size")
+                col.prop(p, "wave_resolution")
+                col.prop(p, "wave_seed")
+                col.prop(p, "choppiness")
+                col.prop(p, "wave_depth")
+            col = layout.column(align=True)
+            col.prop(p, "wind_speed")
+            col.prop(p, "wind_direction")
+            col.prop(p, "use_roughness")
+            sub = col.row()
+            sub.active = p.use_roughness
+            sub.prop(p, "roughness_anisotropic")
             layout.prop(p, "use_bottom")
             col = layout.column()
             col.active = p.use_bottom

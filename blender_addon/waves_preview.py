@@ -1,0 +1,82 @@
+"""Wave-model water surfaces in Blender: the model of an object, and its mesh as a preview.
+
+The render never uses the preview mesh: the export rebuilds the surface from the model at the
+frame's time, with the model's exact normals. The preview is regenerated when a wave setting
+changes and on every frame change (so the animation plays in the viewport).
+"""
+from __future__ import annotations
+
+import math
+
+import bpy
+from bpy.app.handlers import persistent
+
+from .engine_loader import load_engine
+
+
+def frame_time(scene) -> float:
+    """Seconds of the current frame (the waves' time)."""
+    fps = scene.render.fps / scene.render.fps_base
+    return scene.frame_current / fps
+
+
+def wave_model(photic, obj, time_s: float):
+    """The ``photic.waves.WaveModel`` of an object with surface shape 'Wave Model'."""
+    p = obj.photic
+    n = int(p.wave_resolution)
+    size = float(f"{p.wave_patch_size:.7g}")
+    return photic.waves.WaveModel(
+        spectrum=p.wave_spectrum, wind_speed=float(f"{p.wind_speed:.7g}"),
+        wind_direction_deg=float(f"{math.degrees(p.wind_direction):.7g}"),
+        patch_size_m=(size, size), resolution=(n, n), seed=int(p.wave_seed), time_s=time_s,
+        choppiness=float(f"{p.choppiness:.7g}"),
+        water_depth_m=float(p.wave_depth) if p.wave_depth > 0 else None,
+        fetch_m=float(p.fetch) if p.wave_spectrum == "jonswap" else None)
+
+
+def update_object(obj, scene=None) -> str | None:
+    """Replace the object's mesh by the wave patch of its model; returns an error or None."""
+    if obj is None or obj.type != "MESH" or obj.photic.role != "WATER_SURFACE" or \
+            obj.photic.surface_shape != "WAVES":
+        return None
+    photic = load_engine()
+    if photic is None:
+        return "the Photic engine is unavailable"
+    scene = scene or bpy.context.scene
+    try:
+        model = wave_model(photic, obj, frame_time(scene))
+        vertices, triangles, _ = photic.waves.surface_patch(model, 0.0)
+    except (ValueError, photic.scene.SceneError) as exc:
+        return str(exc)
+    mesh = obj.data
+    mesh.clear_geometry()
+    mesh.vertices.add(len(vertices))
+    mesh.vertices.foreach_set("co", vertices.astype("float32").ravel())
+    nt = len(triangles)
+    mesh.loops.add(3 * nt)
+    mesh.loops.foreach_set("vertex_index", triangles.astype("int32").ravel())
+    mesh.polygons.add(nt)
+    import numpy as np
+    mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * nt, 3, dtype=np.int32))
+    if bpy.app.version < (4, 0, 0):
+        mesh.polygons.foreach_set("loop_total", np.full(nt, 3, np.int32))
+    mesh.update()
+    return None
+
+
+@persistent
+def on_frame_change(scene, depsgraph=None):
+    for obj in scene.objects:
+        if obj.type == "MESH" and obj.photic.role == "WATER_SURFACE" and \
+                obj.photic.surface_shape == "WAVES":
+            update_object(obj, scene)
+
+
+def register():
+    if on_frame_change not in bpy.app.handlers.frame_change_post:
+        bpy.app.handlers.frame_change_post.append(on_frame_change)
+
+
+def unregister():
+    if on_frame_change in bpy.app.handlers.frame_change_post:
+        bpy.app.handlers.frame_change_post.remove(on_frame_change)
