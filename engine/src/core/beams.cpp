@@ -66,9 +66,11 @@ double Scene::beam_total_flux() const {
     return s;
 }
 
-void Scene::build_beams(const Vec3& sun_direction, int threads) {
+void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2) {
     prisms.clear();
     flat_beam = false;
+    flat_d.clear();
+    flat_e0.clear();
     grid_ = BeamGrid();
     if (!has_sun) return;
     const Vec3 s = normalize(sun_direction);
@@ -85,15 +87,43 @@ void Scene::build_beams(const Vec3& sun_direction, int threads) {
     // uniformly in the disk carries L times the disk's solid angle (normal to itself).
     for (int k = 0; k < nbands; ++k) e_sun.v[k] = sun_radiance.v[k] * 2.0 * kPi * (1.0 - std::cos(alpha));
 
-    if (ocean_water >= 0 && ocean_flat && s.z > 0.0) {
-        const Water& w = waters[ocean_water];
-        Vec3 d;
-        if (refract(-s, Vec3(0, 0, 1), 1.0, w.ior, &d)) {
-            double T = 1.0 - fresnel_unpolarized(s.z, 1.0, w.ior);
-            flat_beam = true;
-            flat_d = d;
-            for (int k = 0; k < nbands; ++k) flat_e0.v[k] = e_sun.v[k] * s.z * T / (-d.z);
+    // Refraction of the sun through the ocean surface with local normal n: the direction and
+    // the transmitted fraction of the flux arriving on the macro surface. A rough surface
+    // refracts through this build's facet (the same facet relative to every local normal),
+    // weighted so that the expectation over builds is the rough BTDF's transmission.
+    auto ocean_refraction = [&](const Vec3& n, double ior, Vec3* d, double* T,
+                                double u1, double u2) -> bool {
+        if (!(dot(n, s) > 0.0)) return false;
+        if (!ocean_rough) {
+            if (!refract(-s, n, 1.0, ior, d)) return false;
+            *T = 1.0 - fresnel_unpolarized(dot(n, s), 1.0, ior);
+            return true;
         }
+        const Frame fr(n);
+        RoughSample rs = ocean_bsdf.sample(fr.to_local(s), u1, u2, 1.0, RoughInterface::kImportance);
+        if (!rs.valid || rs.reflection) return false;
+        *d = fr.to_world(rs.wo);
+        *T = (1.0 - rs.fresnel) * rs.weight;  // transmission was forced: its probability 1 - F
+        return true;
+    };
+
+    if (ocean_water >= 0 && ocean_flat && s.z > 0.0) {
+        // A rough flat sea: kRoughFlatBeams facets, stratified in the facet's slope radius and
+        // rotated by the golden angle, each carrying its share of the flux.
+        const Water& w = waters[ocean_water];
+        const int nf = ocean_rough ? kRoughFlatBeams : 1;
+        for (int i = 0; i < nf; ++i) {
+            double u1 = ocean_rough ? (i + facet_u1) / nf : facet_u1;
+            double u2 = std::fmod(facet_u2 + i * 0.6180339887498949, 1.0);
+            Vec3 d;
+            double T;
+            if (!ocean_refraction(Vec3(0, 0, 1), w.ior, &d, &T, u1, u2)) continue;
+            Spectrum e0;
+            for (int k = 0; k < nbands; ++k) e0.v[k] = e_sun.v[k] * s.z * T / (-d.z) / nf;
+            flat_d.push_back(d);
+            flat_e0.push_back(e0);
+        }
+        flat_beam = !flat_d.empty();
     }
 
     // Source triangles: the ocean patch (the given vertex normals, or shared vertex normals
@@ -195,7 +225,7 @@ void Scene::build_beams(const Vec3& sun_direction, int threads) {
         object_boxes.push_back({lo, hi});
     }
 
-    auto trace_vertex = [&](const Vec3& p, const Vec3& n, int wi) {
+    auto trace_vertex = [&](const Vec3& p, const Vec3& n, int wi, bool rough) {
         VertexRay r;
         r.p = p;
         r.n = n;
@@ -204,8 +234,10 @@ void Scene::build_beams(const Vec3& sun_direction, int threads) {
         for (int k = 0; k < nbands; ++k) cmin = std::min(cmin, w.c_beam.v[k]);
         double cap = std::min(cmin > 0 ? 30.0 / cmin : kInf, 100.0 * extent_);
         double off = offset_for(p);
-        double cs = dot(n, s);
-        if (cs > 0.0 && refract(-s, n, 1.0, w.ior, &r.d)) {
+        double cs = dot(n, s), T;
+        bool through = rough ? ocean_refraction(n, w.ior, &r.d, &T, facet_u1, facet_u2)
+                             : cs > 0.0 && refract(-s, n, 1.0, w.ior, &r.d);
+        if (through) {
             r.lit = !occluded(p + n * off, s);
         } else {
             r.d = -n;  // unlit grazing vertex: a placeholder direction into the water
@@ -228,7 +260,8 @@ void Scene::build_beams(const Vec3& sun_direction, int threads) {
             Item it = stack.back();
             stack.pop_back();
             VertexRay r[3];
-            for (int j = 0; j < 3; ++j) r[j] = trace_vertex(it.p[j], it.n[j], st.water);
+            const bool rough = st.periodic && ocean_rough;  // the ocean patch's facets
+            for (int j = 0; j < 3; ++j) r[j] = trace_vertex(it.p[j], it.n[j], st.water, rough);
             int lit = int(r[0].lit) + int(r[1].lit) + int(r[2].lit);
             if (lit == 0) continue;
             // One prism is right only if its three rays end on one plane of one object; else
@@ -254,6 +287,8 @@ void Scene::build_beams(const Vec3& sun_direction, int threads) {
             double cs = dot(st.nf, s);
             double area = 0.5 * length(cross(it.p[1] - it.p[0], it.p[2] - it.p[0]));
             double T = 1.0 - fresnel_unpolarized(cs, 1.0, w.ior);
+            Vec3 d_face;
+            if (rough && !ocean_refraction(st.nf, w.ior, &d_face, &T, facet_u1, facet_u2)) continue;
             for (int k = 0; k < nbands; ++k) P.phi.v[k] = e_sun.v[k] * cs * area * T;
             bool down = true;
             for (int j = 0; j < 3; ++j) {
@@ -414,17 +449,20 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max) const {
     if (medium < 0 || max <= 0) return 0;
     if (flat_beam && medium == ocean_water && x.z < ocean_z && (!has_bottom || x.z > bottom_z)) {
         const Water& w = waters[medium];
-        double l = (ocean_z - x.z) / (-flat_d.z);
-        bool visible = true;
-        if (!meshes.empty()) {
-            double off = offset_for(x);
-            visible = !occluded_segment(x, -flat_d, std::max(0.0, l - 2.0 * off));
-            if (visible) visible = !occluded(x - flat_d * l + Vec3(0, 0, off), beam_sun_dir);
-        }
-        if (visible) {
-            out[n].d = flat_d;
-            for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0.v[k] * std::exp(-w.c_beam.v[k] * l);
-            ++n;
+        for (size_t i = 0; i < flat_d.size() && n < max; ++i) {
+            const Vec3& fd = flat_d[i];
+            double l = (ocean_z - x.z) / (-fd.z);
+            bool visible = true;
+            if (!meshes.empty()) {
+                double off = offset_for(x);
+                visible = !occluded_segment(x, -fd, std::max(0.0, l - 2.0 * off));
+                if (visible) visible = !occluded(x - fd * l + Vec3(0, 0, off), beam_sun_dir);
+            }
+            if (visible) {
+                out[n].d = fd;
+                for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * std::exp(-w.c_beam.v[k] * l);
+                ++n;
+            }
         }
     }
     if (grid_.nx == 0) return n;

@@ -361,17 +361,23 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
         } else if (h.id == -3 && ocean_rough) {
             // The rough ocean surface: a microfacet BSDF around the geometric normal (which
             // points into the air). Next-event estimation of the sun here gives glint from above
-            // and the sun seen through the surface from below; paths sampled on into the sun
-            // are then not counted again (sun_covered).
+            // and (path tracing) the sun seen through the surface from below; paths sampled on
+            // into the sun are then not counted again (sun_covered).
+            // The BSDF's frame follows the shading normal (a wave model's exact normals, as the
+            // beams refract with them); directions must also lie on the right side of the
+            // geometric facet, else the sample is lost (rare, at grazing angles).
             const Water& w = waters[h.index];
             if (medium >= 0) flush(w);
-            const Frame fr(h.n);
+            const Frame fr(h.ns);
             const Vec3 wi = fr.to_local(-d);
-            if (has_sun && !hybrid) {
+            if ((wi.z > 0.0) != (medium < 0)) return out;
+            // In the hybrid integrator the beams carry the sun into the water: from below, the
+            // sun is estimated here only on paths the beams do not already cover (a camera's).
+            if (has_sun && (!hybrid || medium < 0 || !beam_covered)) {
                 double u1 = rng.uniform(), u2 = rng.uniform();
                 Vec3 ws = sample_sun(u1, u2);
                 Vec3 wsl = fr.to_local(ws);
-                if (wsl.z > 0.0) {
+                if (wsl.z > 0.0 && dot(ws, h.n) > 0.0) {
                     double f = ocean_bsdf.eval(wi, wsl, RoughInterface::kRadiance);
                     if (f > 0.0) {
                         c.shadow_rays++;
@@ -388,9 +394,10 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             for (int k = 0; k < nb; ++k) beta.v[k] *= rs.weight;
             bool to_air = rs.wo.z > 0.0;
             d = fr.to_world(rs.wo);
+            if ((dot(d, h.n) > 0.0) != to_air) return out;
             o = x + h.n * (to_air ? off : -off);
             medium = to_air ? -1 : h.index;
-            sun_covered = has_sun && !hybrid;
+            sun_covered = has_sun;  // by the estimate above, or by the beams (hybrid, from below)
             beam_covered = false;
         } else {
             // Water boundary with outward normal h.n.

@@ -88,11 +88,13 @@ PYBIND11_MODULE(_core, m) {
         .def_readwrite("beam_min_area_fraction", &Scene::beam_min_area_fraction)
         .def_readonly("cone_half_angle", &Scene::cone_half_angle)
         .def("set_forward_cone", &Scene::set_forward_cone, py::arg("half_angle_rad"))
-        .def("build_beams", [](Scene& s, std::array<double, 3> sun_dir, int threads) {
+        .def("build_beams", [](Scene& s, std::array<double, 3> sun_dir, int threads, std::array<double, 2> facet_u) {
             py::gil_scoped_release nogil;
-            s.build_beams(to_vec(sun_dir), threads);
-        }, py::arg("sun_direction"), py::arg("threads") = 0,
-           "Builds the beams for one sun direction (drawn in the disk for every pass).")
+            s.build_beams(to_vec(sun_dir), threads, facet_u[0], facet_u[1]);
+        }, py::arg("sun_direction"), py::arg("threads") = 0, py::arg("facet_u") = std::array<double, 2>{0.5, 0.0},
+           "Builds the beams for one sun direction (drawn in the disk for every pass); with a rough "
+           "ocean surface, facet_u (two uniforms in [0, 1)) picks the sub-pixel facet of this build.")
+        .def_property_readonly("ocean_rough", [](const Scene& s) { return s.ocean_rough; })
         .def_property_readonly("beam_count", [](const Scene& s) { return s.prisms.size(); })
         .def_property_readonly("has_flat_beam", [](const Scene& s) { return s.flat_beam; })
         .def("beam_total_flux", &Scene::beam_total_flux)

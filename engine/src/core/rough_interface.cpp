@@ -189,6 +189,8 @@ RoughSample RoughInterface::sample(const Vec3& wi, double u1, double u2, double 
         s.pdf = D * h.z * (1.0 - F) * eta_oi * eta_oi * (-co) / (denom * denom);
         s.reflection = false;
     }
+    s.fresnel = F;
+    s.h = to_world(below ? Vec3(h.x, h.y, -h.z) : h);
     if (below) o.z = -o.z;
     s.wo = to_world(o);
     s.valid = s.pdf > 0.0;

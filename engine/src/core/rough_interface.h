@@ -43,6 +43,8 @@ struct RoughSample {
     double pdf = 0.0;      // solid-angle density of wo
     bool reflection = false;
     bool valid = false;
+    Vec3 h;                // the sampled facet normal (world space, on the side of wi)
+    double fresnel = 0.0;  // Fresnel reflectance of that facet for wi
 };
 
 class RoughInterface {

@@ -141,6 +141,13 @@ bool Scene::intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit)
                 auto v = [&](uint32_t k) { return Vec3(patch_vertices[3 * k], patch_vertices[3 * k + 1], patch_vertices[3 * k + 2]); };
                 Vec3 n = normalize(cross(v(tri[1]) - v(tri[0]), v(tri[2]) - v(tri[0])));
                 if (n.z < 0) n = -n;  // water lies below the surface: outward is up
+                hit->ns = n;
+                if (patch_normals.size() == patch_vertices.size()) {  // exact normals given
+                    auto vn = [&](uint32_t k) { return Vec3(patch_normals[3 * k], patch_normals[3 * k + 1], patch_normals[3 * k + 2]); };
+                    double u = rh.hit.u, w = rh.hit.v;
+                    Vec3 ns = normalize(vn(tri[0]) * (1.0 - u - w) + vn(tri[1]) * u + vn(tri[2]) * w);
+                    if (ns.z > 0.0) hit->ns = ns;
+                }
                 hit->valid = true; hit->t = t; hit->n = n; hit->id = -3;
                 hit->kind = SurfaceKind::kWaterBoundary; hit->index = ocean_water;
                 return true;
@@ -175,7 +182,7 @@ Hit Scene::intersect(const Vec3& o, const Vec3& d, double tmax) const {
             if (d.z != 0.0) {
                 double t = (ocean_z - o.z) / d.z;
                 if (t > 0.0 && t < hit.t) {
-                    hit.valid = true; hit.t = t; hit.n = Vec3(0, 0, 1); hit.id = -3;
+                    hit.valid = true; hit.t = t; hit.n = Vec3(0, 0, 1); hit.ns = hit.n; hit.id = -3;
                     hit.kind = SurfaceKind::kWaterBoundary; hit.index = ocean_water;
                 }
             }

@@ -15,6 +15,7 @@ namespace photic {
 
 constexpr int kMaxBands = 16;  // bands per render pass; larger band lists are split in groups
 constexpr int kNumComponents = 5;  // total, beam_surface, beam_volume, path, beam_direct
+constexpr int kRoughFlatBeams = 16;  // facets per build below a rough flat ocean
 constexpr int kMaxBeams = 64;      // beams summed at one point (overlaps in strong caustics)
 
 struct Spectrum {
@@ -60,6 +61,7 @@ struct Hit {
     bool valid = false;
     double t = kInf;
     Vec3 n;               // unit geometric normal (outward for water boundaries)
+    Vec3 ns;              // shading normal: the interpolated exact normals of a wave patch, else n
     SurfaceKind kind = SurfaceKind::kOpaque;
     int index = -1;
 };
@@ -175,14 +177,19 @@ public:
     double beam_min_area_fraction = 1e-6;  // floor of a cross-section, times the source area
     // Beams of the current pass (rebuilt for every sun direction drawn in the disk).
     std::vector<BeamPrism> prisms;
-    bool flat_beam = false;           // analytic beam below a flat ocean
-    Vec3 flat_d;                      // its refracted direction
-    Spectrum flat_e0;                 // its irradiance normal to flat_d just below the surface
+    bool flat_beam = false;           // analytic beam(s) below a flat ocean
+    // Their refracted directions and irradiances normal to them just below the surface: one
+    // beam for a smooth surface, kRoughFlatBeams facets (stratified) for a rough one.
+    std::vector<Vec3> flat_d;
+    std::vector<Spectrum> flat_e0;
     Vec3 beam_sun_dir{0, 0, 1};
     double beam_mu_w = 1.0;           // cosine of the refracted sun's zenith angle in water
 
     void set_forward_cone(double half_angle);  // recomputes the waters' path/beam coefficients
-    void build_beams(const Vec3& sun_direction, int threads);
+    // Beams for one sun direction. With a rough ocean surface, facet_u (two uniforms) picks
+    // one sub-pixel facet orientation (relative to each local normal) for this build: over
+    // builds, the beams then spread as the rough BTDF says (in expectation).
+    void build_beams(const Vec3& sun_direction, int threads, double facet_u1 = 0.5, double facet_u2 = 0.0);
     // Every beam covering x (in water body `medium`); returns how many were written (<= max).
     int beams_at(const Vec3& x, int medium, BeamSample* out, int max) const;
     double beam_total_flux() const;   // sum of prism fluxes entering the water (band 0)

@@ -77,14 +77,9 @@ def resolve_integrator(scene: Scene) -> str:
     """'hybrid' or 'path': the scene's choice, 'auto' meaning hybrid when there is a sun."""
     choice = scene.settings.integrator
     if choice == "auto":
-        return "hybrid" if scene.sun is not None and not rough_surfaces(scene) else "path"
+        return "hybrid" if scene.sun is not None else "path"
     return choice
 
-
-def rough_surfaces(scene: Scene) -> list[str]:
-    """Names of the water bodies whose surface has sub-pixel roughness."""
-    return [w.name for w in scene.water
-            if w.surface is not None and getattr(w.surface, "roughness", None) is not None]
 
 
 def optical_depth_scale(scene: Scene) -> float:
@@ -168,12 +163,6 @@ class Renderer:
         scene.validate()
         st = scene.settings
         self.integrator = resolve_integrator(scene)
-        rough = rough_surfaces(scene)
-        if self.integrator == "hybrid" and rough:
-            raise SceneError("settings", "integrator",
-                             f"'hybrid' does not support the sub-pixel roughness of water "
-                             f"'{rough[0]}' yet (its beams do not spread by the rough BTDF): "
-                             f"use 'path' or 'auto'")
         self.forward_cone_deg = resolve_forward_cone(scene) if self.integrator == "hybrid" else 0.0
         self.scene = scene
         self.samples = int(st.samples if samples is None else samples)
@@ -239,7 +228,7 @@ class Renderer:
         cam_sums = self._cam_sums = {c.name: [np.zeros((c.resolution[1], c.resolution[0], nc, nb))
                                               for _ in range(2)] for c in scene.cameras}
         cam_done = self._cam_done = {c.name: 0 for c in scene.cameras}
-        rad_sums, rad_done = [], [0] * len(radiometers)
+        rad_sums, rad_done, rad_batch = [], [0] * len(radiometers), []
         cam_passes = self._camera_passes()
         # The hybrid integrator draws a sun direction per pass: at least 64 passes (of 4,096 to
         # 65,536 samples) so the disk is sampled evenly and its spread stays well inside the
@@ -268,14 +257,23 @@ class Renderer:
                 return
             rng = np.random.default_rng([self.seed, gi, *key])
             tb = time.perf_counter()
-            core.build_beams(tuple(sun_direction_in_disk(scene, i, n, rng)), self.threads)
+            direction = tuple(sun_direction_in_disk(scene, i, n, rng))
+            if core.ocean_rough:
+                # The sub-pixel facet(s) of the rough surface for this build, stratified over
+                # the passes like the sun's disk.
+                r = rng.random(2)
+                core.build_beams(direction, self.threads,
+                                 ((i + r[0]) / n, (r[1] + i * 0.6180339887498949) % 1.0))
+            else:
+                core.build_beams(direction, self.threads)
             beam_stats["build_s"] += time.perf_counter() - tb
             beam_stats["passes"] += 1
             beam_stats["prisms"] = max(beam_stats["prisms"], core.beam_count)
 
-        def run_passes(core, gi, g, key, passes, render_pass, sums, done, done_key, work_per_sample, label, total):
+        def run_passes(core, gi, g, key, passes, render_pass, sums, done, done_key, work_per_sample,
+                       label, total, batch=None):
             """Render one sensor's passes into its sums; False when cancelled (the cancelled
-            pass is dropped)."""
+            pass is dropped). ``batch``: [sum, sum of squares, count] of the pass means."""
             nonlocal done_work
             for pi, (start, n) in enumerate(passes):
                 new_pass(core, gi, key, pi, len(passes))
@@ -283,6 +281,11 @@ class Renderer:
                 if core.cancelled:
                     return False
                 with self._lock:
+                    if batch is not None:
+                        pm = s / (n / s.shape[0])
+                        batch[0][..., g] += pm
+                        batch[1][..., g] += pm * pm
+                        batch[2][g] += 1
                     sums[0][..., g] += s
                     sums[1][..., g] += s2
                     if gi == 0:
@@ -314,11 +317,19 @@ class Renderer:
                 if not ok:
                     cancelled = True
                     break
+            # With a rough ocean each beam build refracts through other sub-pixel facets: that
+            # variation between passes is not in the per-sample variance, so the standard error
+            # also comes from the spread of the pass means (batch means), the larger one kept.
+            batch_means = hybrid and core.ocean_rough
             for ri, r in enumerate(radiometers):
                 if cancelled:
                     break
+                if batch_means and len(rad_batch) <= ri:
+                    shape = rad_sums[ri][0].shape
+                    rad_batch.append([np.zeros(shape), np.zeros(shape), np.zeros(nb)])
                 ok = run_passes(core, gi, g, (1, ri), rad_passes, lambda st, n, ri=ri: core.render_radiometer(ri, st, n, self.threads),
-                                rad_sums[ri], rad_done, ri, 1, f"radiometer {r.name}", self.radiometer_samples)
+                                rad_sums[ri], rad_done, ri, 1, f"radiometer {r.name}", self.radiometer_samples,
+                                rad_batch[ri] if batch_means else None)
                 if not ok:
                     cancelled = True
                     break
@@ -338,6 +349,11 @@ class Renderer:
             nbins = rad_sums[ri][0].shape[0]
             counts = _bin_counts(rad_done[ri], nbins)[:, None, None]
             mean, err = _mean_stderr(rad_sums[ri][0], rad_sums[ri][1], counts)
+            if ri < len(rad_batch):
+                bs, bs2, bn = rad_batch[ri]
+                k = np.maximum(bn, 2.0)
+                var = np.maximum(0.0, bs2 - bs * bs / k) / (k - 1.0)
+                err = np.where(bn >= 4, np.maximum(err, np.sqrt(var / k)), err)
             bins = (r.polar_bins, r.azimuth_bins) if r.quantity == "radiance_distribution" else None
             comps = {name: (mean[:, i + 1, :], err[:, i + 1, :]) for i, name in enumerate(COMPONENTS)}
             result.radiometers.append(RadiometerResult(r.name, r.quantity, np.asarray(r.position, float),
