@@ -316,9 +316,12 @@ class _Exporter:
             surface = S.OceanSurface("flat", z=float(m[2, 3]))
         elif p.surface_shape == "WAVES":
             from .waves_preview import frame_time, wave_model
-            surface = S.OceanSurface("waves", z=float(m[2, 3]),
-                                     waves=wave_model(self.photic, obj.original,
-                                                      frame_time(self.bscene)))
+            try:
+                model = wave_model(self.photic, obj.original, frame_time(self.bscene))
+            except ValueError as exc:
+                raise ExportError(owner, "Photic > Sinusoids (photic.wave_sinusoids)",
+                                  str(exc)) from None
+            surface = S.OceanSurface("waves", z=float(m[2, 3]), waves=model)
         else:
             data = self.mesh_data(obj, key)
             if data is None or len(data[1]) == 0:

@@ -113,8 +113,15 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
         name="Spectrum", default="pierson_moskowitz", update=_wave_update,
         items=[("pierson_moskowitz", "Pierson-Moskowitz", "Fully developed wind sea"),
                ("jonswap", "JONSWAP", "Fetch-limited wind sea (peak enhancement 3.3)"),
-               ("phillips", "Phillips", "Tessendorf's Phillips spectrum")],
+               ("phillips", "Phillips", "Tessendorf's Phillips spectrum"),
+               ("sinusoids", "Sinusoids", "A sum of the sinusoidal waves listed in "
+                                          "'Sinusoids'")],
         description="Ocean wave spectrum of the wave model")
+    wave_sinusoids: StringProperty(
+        name="Sinusoids", default="0.05:10:0:0, 0.02:5:60:1",
+        update=_wave_update,
+        description="Waves as 'amplitude_m:wavelength_m:direction_deg:phase_rad' separated by "
+                    "commas; each must repeat a whole number of times over the patch")
     wind_speed: FloatProperty(name="Wind Speed", default=5.0, min=0.0, max=50.0, precision=2,
                               update=_wave_update,
                               description="Wind speed at 10 m above the sea (m/s): the wave "
@@ -144,8 +151,8 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
                                           "deep water")
     use_roughness: BoolProperty(name="Sub-pixel Roughness", default=False,
                                 description="Cox-Munk facet slopes for the wind speed below "
-                                            "the resolved waves: glint and sky reflection "
-                                            "(path tracing)")
+                                            "the resolved waves: sun glint, sky reflection and "
+                                            "the spread of the transmitted sun")
     roughness_anisotropic: BoolProperty(name="Anisotropic", default=False,
                                         description="Upwind and crosswind slope variances "
                                                     "instead of the isotropic total")

@@ -140,6 +140,8 @@ class PHOTIC_PT_object(PhoticPanel, bpy.types.Panel):
                 col.prop(p, "wave_spectrum")
                 if p.wave_spectrum == "jonswap":
                     col.prop(p, "fetch")
+                elif p.wave_spectrum == "sinusoids":
+                    col.prop(p, "wave_sinusoids")
                 col.prop(p, "wave_patch_size")
                 col.prop(p, "wave_resolution")
                 col.prop(p, "wave_seed")

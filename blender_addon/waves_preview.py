@@ -20,8 +20,28 @@ def frame_time(scene) -> float:
     return scene.frame_current / fps
 
 
+def parse_sinusoids(text: str) -> tuple:
+    """'a:lambda:dir:phase, ...' as ((amplitude m, wavelength m, direction deg, phase rad), ...);
+    ValueError naming the bad item."""
+    waves = []
+    for i, item in enumerate(t.strip() for t in text.split(",") if t.strip()):
+        parts = item.split(":")
+        try:
+            values = [float(x) for x in parts]
+        except ValueError:
+            values = []
+        if not 2 <= len(values) <= 4:
+            raise ValueError(f"wave {i + 1} ({item!r}) must be "
+                             f"'amplitude_m:wavelength_m[:direction_deg[:phase_rad]]'")
+        waves.append(tuple(values + [0.0] * (4 - len(values))))
+    if not waves:
+        raise ValueError("is empty: list at least one wave")
+    return tuple(waves)
+
+
 def wave_model(photic, obj, time_s: float):
-    """The ``photic.waves.WaveModel`` of an object with surface shape 'Wave Model'."""
+    """The ``photic.waves.WaveModel`` of an object with surface shape 'Wave Model' (ValueError
+    for a bad 'Sinusoids' list)."""
     p = obj.photic
     n = int(p.wave_resolution)
     size = float(f"{p.wave_patch_size:.7g}")
@@ -31,7 +51,8 @@ def wave_model(photic, obj, time_s: float):
         patch_size_m=(size, size), resolution=(n, n), seed=int(p.wave_seed), time_s=time_s,
         choppiness=float(f"{p.choppiness:.7g}"),
         water_depth_m=float(p.wave_depth) if p.wave_depth > 0 else None,
-        fetch_m=float(p.fetch) if p.wave_spectrum == "jonswap" else None)
+        fetch_m=float(p.fetch) if p.wave_spectrum == "jonswap" else None,
+        sinusoids=parse_sinusoids(p.wave_sinusoids) if p.wave_spectrum == "sinusoids" else ())
 
 
 def update_object(obj, scene=None) -> str | None:

@@ -633,3 +633,22 @@ def test_wave_model_surface_previews_animates_and_exports(empty):
     scene.photic.integrator, scene.photic.samples = "PATH", 1
     res = Renderer(exported, samples=1).run()
     assert np.isfinite(res.images["Camera"].mean).all() and res.images["Camera"].mean.mean() > 0
+
+
+def test_wave_model_sinusoids_and_their_errors(empty):
+    add_camera()
+    sea = add_sea()
+    p = sea.photic
+    p.wave_resolution, p.wave_patch_size = 32, 20.0
+    p.wave_spectrum, p.wave_sinusoids = "sinusoids", "0.05:10:0:0, 0.02:5:90"
+    p.surface_shape = "WAVES"
+    exported, _ = export_current()
+    assert exported.water[0].surface.waves.sinusoids == ((0.05, 10.0, 0.0, 0.0), (0.02, 5.0, 90.0, 0.0))
+    z = np.array([v.co.z for v in sea.data.vertices])
+    assert z.max() == pytest.approx(0.07, abs=0.005)
+    p.wave_sinusoids = "0.05:ten"
+    with pytest.raises(export.ExportError, match="Sinusoids.*wave 1"):
+        export_current()
+    p.wave_sinusoids = "0.05:7"  # does not repeat over the 20 m patch
+    with pytest.raises(export.ExportError, match="Object 'Sea'"):
+        export_current()
