@@ -230,6 +230,12 @@ PYBIND11_MODULE(_core, m) {
             s.sun_radiance = to_spectrum(radiance, s.nbands, "sun radiance");
             s.sun_cos_half = cos_half;
         })
+        .def("set_sky_table", [](Scene& s, DArray table) {
+            if (table.ndim() != 2 || table.shape(0) < 2 || table.shape(1) < 1)
+                throw std::invalid_argument("sky table must be (n_theta >= 2, n_phi >= 1)");
+            s.sky_nt = int(table.shape(0)); s.sky_np = int(table.shape(1));
+            s.sky_table.assign(table.data(), table.data() + table.size());
+        }, py::arg("table"), "Relative sky radiance on (zenith 0..90 deg) x (azimuth 0..360 deg, periodic) nodes; sky type 3.")
         .def("set_sky", [](Scene& s, int type, DArray l0, bool full_sphere) {
             s.sky_type = type;
             s.sky_l0 = to_spectrum(l0, s.nbands, "sky radiance");

@@ -244,6 +244,16 @@ Spectrum Scene::sky_radiance(const Vec3& d) const {
     if (sky_type == 0) return s;
     if (d.z <= 0.0 && !sky_full_sphere) return s;
     double f = sky_type == 2 ? (1.0 + 2.0 * d.z) : 1.0;
+    if (sky_type == 3) {
+        double th = std::acos(std::clamp(d.z, 0.0, 1.0)) / (0.5 * kPi) * (sky_nt - 1);
+        double ph = std::atan2(d.y, d.x);
+        if (ph < 0) ph += 2.0 * kPi;
+        ph = ph / (2.0 * kPi) * sky_np;
+        int i0 = std::min(sky_nt - 2, int(th)), j0 = int(ph) % sky_np, j1 = (j0 + 1) % sky_np;
+        double ft = th - i0, fp = ph - std::floor(ph);
+        auto T = [&](int i, int j) { return sky_table[size_t(i) * sky_np + j]; };
+        f = (1 - ft) * ((1 - fp) * T(i0, j0) + fp * T(i0, j1)) + ft * ((1 - fp) * T(i0 + 1, j0) + fp * T(i0 + 1, j1));
+    }
     for (int k = 0; k < nbands; ++k) s.v[k] = sky_l0.v[k] * f;
     return s;
 }

@@ -162,7 +162,11 @@ public:
     double sun_cos_half = 1.0;       // cosine of angular radius
     Spectrum sun_radiance;           // uniform disk radiance
 
-    int sky_type = 0;                // 0 black, 1 uniform, 2 cardioidal
+    int sky_type = 0;                // 0 black, 1 uniform, 2 cardioidal, 3 tabulated
+    // Tabulated sky (type 3): relative radiance on nodes theta_i = i/(nt-1) 90 deg (zenith
+    // angle) x phi_j = j/np 360 deg (azimuth from +x towards +y, periodic), bilinear.
+    std::vector<double> sky_table;
+    int sky_nt = 0, sky_np = 0;
     bool sky_full_sphere = false;    // uniform radiance below the horizon too (furnace tests)
     Spectrum sky_l0;
 

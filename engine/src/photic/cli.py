@@ -1,4 +1,4 @@
-"""Command line: ``photic render`` and ``photic bench`` (also ``python -m photic``)."""
+"""Command line: ``photic render``, ``photic derive``, ``photic bench`` and others (also ``python -m photic``)."""
 from __future__ import annotations
 
 import argparse
@@ -157,6 +157,40 @@ def cmd_problems(args) -> int:
     return 0 if all(r["passed"] for r in records) else 1
 
 
+def cmd_derive(args) -> int:
+    from .derived import DerivedError, derive, derived_rows, format_table, load_table, write_derived_csv
+
+    try:
+        table = load_table(args.table)
+        rrs = None
+        if args.rrs:
+            extra = {"sky": args.sky, "rho": args.rho, "reflected": args.reflected}
+            rrs = [{"lu": lu, "ed": ed, **{k: v for k, v in extra.items() if v is not None}} for lu, ed in args.rrs]
+        elif args.sky or args.rho is not None or args.reflected:
+            raise DerivedError("--sky, --rho and --reflected apply to the radiometers named by --rrs")
+        derived = derive(table, rrs=rrs, fit=not args.no_fit)
+    except OSError as e:
+        print(f"photic derive: cannot read {args.table}: {e}", file=sys.stderr)
+        return 2
+    except DerivedError as e:
+        print(f"photic derive: {e}", file=sys.stderr)
+        return 2
+    out_dir = args.out if args.out is not None else args.table.parent
+    csv_path = write_derived_csv(out_dir / f"{args.table.stem}_derived.csv", derived, table.bands,
+                                 header=f"scene {table.scene}; from {args.table.name}")
+    if args.json:
+        rows = [{k: (None if isinstance(v, float) and v != v else v) for k, v in row.items()}  # NaN -> null
+                for row in derived_rows(derived, table.bands)]
+        print(json.dumps(rows, indent=1))
+    else:
+        if table.cancelled:
+            print("note: the render was cancelled; the values hold the passes finished", file=sys.stderr)
+        print(format_table(derived, table.bands) if derived else
+              "no derived quantities: no profiles, no radiometers sharing a position, no Lu/Ed above water")
+        print(f"derived table: {csv_path}")
+    return 0
+
+
 def find_addon() -> Path:
     """The Blender add-on's folder: $PHOTIC_ADDON_DIR, else the repository's blender_addon."""
     env = os.environ.get("PHOTIC_ADDON_DIR")
@@ -276,6 +310,32 @@ def build_parser() -> argparse.ArgumentParser:
     bl.add_argument("--seed", type=int, default=None, help="random seed (default: the file's)")
     bl.add_argument("--threads", type=int, default=None, help="threads, 0 = all cores (default: the file's)")
     bl.set_defaults(func=cmd_blend)
+    dv = sub.add_parser("derive", help="Kd, R, Rrs and mean cosines from a radiometer table",
+                        description="Reads TABLE (<scene>_radiometers.json, written by 'photic render') "
+                                    "and prints derived quantities with first-order standard errors "
+                                    "(radiometers taken as independent): K (Kd, Ku, Ko, ...) between "
+                                    "consecutive depths of each profile (same quantity, medium and x, y; "
+                                    "depth = -z, K = -d ln E / d depth) and a least-squares K over "
+                                    "profiles of three or more depths; R = Eu/Ed, mu_d = Ed/Eod, "
+                                    "mu_u = Eu/Eou, mu = (Ed - Eu)/Eo at a shared position; Rrs from "
+                                    "radiance and Ed radiometers above the water. Writes "
+                                    "<table stem>_derived.csv beside TABLE (or in --out). See "
+                                    "docs/derived-quantities.md.")
+    dv.add_argument("table", type=Path, help="radiometer table (.json)")
+    dv.add_argument("--out", type=Path, default=None, help="output directory (default: the table's)")
+    dv.add_argument("--json", action="store_true",
+                    help="print the rows as JSON (name, quantity, band, value, stderr, units, sources, ...)")
+    dv.add_argument("--no-fit", action="store_true", help="no least-squares K over profiles")
+    dv.add_argument("--rrs", nargs=2, action="append", metavar=("LU", "ED"), default=None,
+                    help="Rrs from these radiometers (radiance looking down above the water, Ed above "
+                         "the water) instead of every air radiance paired with an air Ed at the same "
+                         "x, y (reported as Rrs_uncorrected: sky reflection not removed); repeatable")
+    dv.add_argument("--sky", default=None, metavar="NAME",
+                    help="with --rrs: sky radiance radiometer; Lw = Lu - RHO * L_sky")
+    dv.add_argument("--rho", type=float, default=None, help="with --sky: surface reflectance factor")
+    dv.add_argument("--reflected", default=None, metavar="NAME",
+                    help="with --rrs: radiometer holding the surface-reflected radiance; Lw = Lu - it")
+    dv.set_defaults(func=cmd_derive)
     b = sub.add_parser("bench", help="throughput benchmark against raw Embree ray casting",
                        description="Measures the engine's path segments per second on two scenes "
                                    "(a 300k-triangle mesh in water; a flat ocean with a few objects) "

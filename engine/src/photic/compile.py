@@ -14,7 +14,7 @@ from .scene import Scene
 
 QUANTITY_CODES = {"Ed": 0, "Eu": 1, "Eo": 2, "Eod": 3, "Eou": 4,
                   "radiance": 5, "radiance_distribution": 6}
-SKY_CODES = {"black": 0, "uniform": 1, "cardioidal": 2}
+SKY_CODES = {"black": 0, "uniform": 1, "cardioidal": 2, "harrison_coombes": 3}
 MAX_BANDS = int(_core.MAX_BANDS)
 
 
@@ -105,6 +105,9 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
     sky = scene.sky
     l0 = sel(sky.radiance_scale) if sky.radiance_scale is not None else np.zeros(nb)
     core.set_sky(SKY_CODES[sky.type], l0, bool(getattr(sky, "full_sphere", False)))
+    if sky.type == "harrison_coombes":
+        from .sky import sky_table
+        core.set_sky_table(sky_table(scene.sun.zenith_deg, scene.sun.azimuth_deg, sky.cloud_fraction))
 
     for cam in scene.cameras:
         core.add_camera(cam.type == "orthographic", tuple(map(float, cam.position)),

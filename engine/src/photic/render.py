@@ -317,10 +317,11 @@ class Renderer:
                 if not ok:
                     cancelled = True
                     break
-            # With a rough ocean each beam build refracts through other sub-pixel facets: that
-            # variation between passes is not in the per-sample variance, so the standard error
-            # also comes from the spread of the pass means (batch means), the larger one kept.
-            batch_means = hybrid and core.ocean_rough
+            # The hybrid integrator builds its beams once per pass (a sun direction in the disk,
+            # and with a rough ocean other sub-pixel facets): that variation between passes is
+            # not in the per-sample variance, so the standard error also comes from the spread
+            # of the pass means (batch means), the larger one kept.
+            batch_means = hybrid
             for ri, r in enumerate(radiometers):
                 if cancelled:
                     break

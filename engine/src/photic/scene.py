@@ -51,7 +51,7 @@ QUANTITIES = ("Ed", "Eu", "Eo", "Eod", "Eou", "radiance", "radiance_distribution
 
 WATER_TYPES = ("mesh", "ocean")
 SURFACE_KINDS = ("flat", "patch", "waves")
-SKY_TYPES = ("black", "uniform", "cardioidal")
+SKY_TYPES = ("black", "uniform", "cardioidal", "harrison_coombes")
 CAMERA_TYPES = ("perspective", "orthographic")
 FILTER_TYPES = ("box", "gaussian")
 INTEGRATORS = ("auto", "path", "hybrid")
@@ -469,6 +469,7 @@ class Sky(_ArrayEq):
     type: str
     radiance_scale: np.ndarray | None = None
     full_sphere: bool = False  # uniform only: radiance L0 below the horizon too (furnace tests)
+    cloud_fraction: float = 0.0  # harrison_coombes only: 0 clear .. 1 overcast
 
     def __post_init__(self):
         self.radiance_scale = _as_floats(self.radiance_scale)
@@ -680,6 +681,9 @@ def _validate_scene(s: Scene) -> None:
     if s.sun is not None:
         _validate_sun(s.sun, nbands)
     _validate_sky(s.sky, nbands)
+    if isinstance(s.sky, Sky) and s.sky.type == "harrison_coombes" and s.sun is None:
+        raise SceneError("sky", "type", "a 'harrison_coombes' sky is shaped by the sun: the "
+                                        "scene needs a sun")
 
     seen = {}
     for i, camera in enumerate(s.cameras):
@@ -922,6 +926,9 @@ def _validate_sky(sky: Any, nbands: int) -> None:
             raise SceneError("sky", "radiance_scale", "must be None for a black sky")
         return
     _check_per_band("sky", "radiance_scale", sky.radiance_scale, nbands)
+    _check_real("sky", "cloud_fraction", sky.cloud_fraction, 0, 1)
+    if sky.cloud_fraction and sky.type != "harrison_coombes":
+        raise SceneError("sky", "cloud_fraction", "only for sky type 'harrison_coombes'")
     if sky.full_sphere and sky.type != "uniform":
         raise SceneError("sky", "full_sphere", f"only a uniform sky can cover the full sphere, not '{sky.type}'")
 
@@ -1306,11 +1313,14 @@ def _read_sky(d: dict, nbands: int) -> Sky:
     if ("radiance" in d) == ("irradiance" in d):
         raise SceneError("sky", "radiance", f"a '{kind}' sky needs exactly one of 'radiance' "
                                             f"and 'irradiance'")
+    if kind != "harrison_coombes":
+        _only_for("sky", d, ("cloud_fraction",), "sky type 'harrison_coombes'")
+    cloud = float(d.get("cloud_fraction", 0.0))
     if "radiance" in d:
-        return Sky(kind, _per_band("sky", "radiance", d["radiance"], nbands), full)
+        return Sky(kind, _per_band("sky", "radiance", d["radiance"], nbands), full, cloud)
     irradiance = _per_band("sky", "irradiance", d["irradiance"], nbands)
-    if kind == "uniform":
-        return Sky(kind, irradiance / math.pi, full)  # E = pi L
+    if kind in ("uniform", "harrison_coombes"):
+        return Sky(kind, irradiance / math.pi, full, cloud)  # E = pi L0 (the table is normalised)
     return Sky(kind, 3.0 * irradiance / (7.0 * math.pi))  # E = 7 pi L0 / 3
 
 
@@ -1438,6 +1448,8 @@ def _scene_to_dict(s: Scene) -> dict:
         sky["radiance"] = _list(s.sky.radiance_scale)
     if s.sky.full_sphere:
         sky["full_sphere"] = True
+    if s.sky.cloud_fraction:
+        sky["cloud_fraction"] = float(s.sky.cloud_fraction)
     arrays = []
     for a in s.radiometer_arrays:
         item: dict[str, Any] = {"name": a.name, "quantities": list(a.quantities),
