@@ -285,3 +285,26 @@ def test_bad_tables_are_refused(tmp_path):
     assert e.field == "chlorophyll_absorption.file" and "missing.csv" in e.message
     e = errors({**case1, "chlorophyll_absorption": {"wavelength_nm": [400, 430], "a_star": [1, 1]}})
     assert e.field == "chlorophyll_absorption" and "440" in e.message
+
+
+def test_scene_files_take_an_iop_model():
+    """A water body's 'iop_model' becomes per-band IOPs when the scene is read; errors name the
+    water body and the model's field."""
+    from photic.scene import Scene, SceneError
+    d = {"photic_scene": 1, "name": "m",
+         "bands": [{"name": "450", "center_nm": 450, "width_nm": 10},
+                   {"name": "550", "center_nm": 550, "width_nm": 10}],
+         "water": [{"name": "sea", "type": "ocean", "surface": {"kind": "flat"},
+                    "iop_model": {"model": "mixture", "components": [
+                        {"model": "cdom", "a_ref": 0.1},
+                        {"model": "particles", "b_ref": 0.3}]}}],
+         "radiometers": [{"name": "Ed", "quantity": "Ed", "position": [0, 0, -1]}]}
+    scene = Scene.from_dict(d)
+    iops = scene.water[0].iops
+    assert iops.absorption[0] > iops.absorption[1] > 0.0565  # CDOM falls with wavelength; + water
+    assert [c.phase.type for c in iops.scattering][0] == "pure_water"
+    again = Scene.from_dict(scene.to_dict())  # written back as the resulting IOPs
+    np.testing.assert_array_equal(again.water[0].iops.absorption, iops.absorption)
+    d["water"][0]["iop_model"]["components"][0]["a_ref"] = -1.0
+    with pytest.raises(SceneError, match=r"water 'sea'.*iop_model\.components\[0\]\.a_ref"):
+        Scene.from_dict(d)

@@ -1227,8 +1227,14 @@ def _read_iops(label: str, d: dict, nbands: int) -> IOPs:
     return IOPs(absorption, components)
 
 
-def _read_water(label: str, d: dict, nbands: int, base_dir: Path) -> WaterBody:
-    iops = _read_iops(label, d["iops"], nbands)
+def _read_water(label: str, d: dict, bands: list, base_dir: Path) -> WaterBody:
+    nbands = len(bands)
+    if "iop_model" in d:
+        from .iop_models import iops_from_model
+        iops = iops_from_model(d["iop_model"], bands, obj=label, prefix="iop_model.",
+                               base_dir=base_dir)
+    else:
+        iops = _read_iops(label, d["iops"], nbands)
     ior = float(d.get("ior", 1.34))
     if d["type"] == "mesh":
         _only_for(label, d, ("surface", "bottom"), "water of type 'ocean'")
@@ -1378,7 +1384,7 @@ def _build_scene(d: dict, base_dir: Path) -> Scene:
     for i, m in enumerate(d.get("meshes", [])):
         label = _label("mesh", m["name"], i)
         meshes.append(MeshObject(m["name"], _read_mesh(label, m, base_dir), m["material"]))
-    water = [_read_water(_label("water", w["name"], i), w, nb, base_dir)
+    water = [_read_water(_label("water", w["name"], i), w, bands, base_dir)
              for i, w in enumerate(d.get("water", []))]
     sun = None
     if d.get("sun") is not None:
