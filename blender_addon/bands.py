@@ -1,8 +1,9 @@
 """Spectral bands of a Blender scene and the mapping between bands and Blender's RGB.
 
-Until the spectral issue brings CIE colour matching, colours map to bands by the nearest
-primary: a band below 490 nm takes blue, 490-580 nm green, above 580 nm red; and an image shows
-the bands nearest 620, 550 and 460 nm as red, green and blue (one band: grey).
+Colours (base colours, lamp and world colours) map to bands by the nearest primary: a band
+below 490 nm takes blue, 490-580 nm green, above 580 nm red. Images of the RGB preset show its
+bands as red, green and blue (one band: grey); any other band set is shown through the CIE 1931
+colour-matching functions (``photic.colour``).
 """
 from __future__ import annotations
 
@@ -83,9 +84,31 @@ def display_indices(bands) -> list[int]:
     return [int(np.argmin(np.abs(centres - nm))) for nm in _DISPLAY_NM]
 
 
-def bands_to_rgba(image: np.ndarray, bands) -> np.ndarray:
-    """(H, W, nbands) -> (H, W, 4) float32 with alpha 1, the display bands as R, G, B."""
+def _display_matrix(bands):
+    """(nbands, 3) matrix to display RGB, or None for a direct pick of bands.
+
+    The RGB preset and single bands show bands directly; any other set of bands goes through
+    the CIE 1931 colour-matching functions (``photic.colour``, white-balanced so that a flat
+    spectrum is grey), falling back to the nearest bands when they miss the visible range."""
+    if len(bands) == 1 or [(c, w) for _, c, w in bands] == [tuple(b) for b in RGB_BANDS]:
+        return None
+    try:
+        from photic.colour import band_matrix
+        return band_matrix([(c, w) for _, c, w in bands])
+    except (ImportError, ValueError):
+        return None
+
+
+def bands_to_rgba(image: np.ndarray, bands, variance: bool = False) -> np.ndarray:
+    """(H, W, nbands) -> (H, W, 4) float32 with alpha 1: display RGB (see _display_matrix).
+
+    ``variance``: the image holds variances; they combine with the squared weights (as for
+    independent bands; bands traced along the same paths are correlated, which this ignores)."""
     h, w = image.shape[:2]
     out = np.ones((h, w, 4), np.float32)
-    out[:, :, :3] = image[:, :, display_indices(bands)]
+    m = _display_matrix(bands)
+    if m is None:
+        out[:, :, :3] = image[:, :, display_indices(bands)]
+    else:
+        out[:, :, :3] = image @ (m * m if variance else m)
     return out

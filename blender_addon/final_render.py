@@ -53,12 +53,12 @@ def image_passes(image, bands) -> dict:
     for name, comp in COMPONENT_PASSES:
         if comp in image.components:
             out[name] = bandmod.bands_to_rgba(image.components[comp], bands)[:, :, :3]
-    out[VARIANCE_PASS] = bandmod.bands_to_rgba(image.variance, bands)[:, :, :3]
+    out[VARIANCE_PASS] = bandmod.bands_to_rgba(image.variance, bands, variance=True)[:, :, :3]
     return out
 
 
 def median_relative_error(image) -> float:
-    """Median over lit pixels of standard error / mean (in the display bands)."""
+    """Median over lit pixels and bands of standard error / mean."""
     mean, var = image.mean, image.variance
     lit = mean > 0
     if not np.any(lit):
