@@ -243,6 +243,14 @@ def cmd_blend(args) -> int:
     return 0
 
 
+def cmd_plugins(args) -> int:
+    from . import plugins
+    for kind, group in plugins.GROUPS.items():
+        found = plugins.available(kind)
+        print(f"{group}: " + (", ".join(f"{n} ({ep.value})" for n, ep in sorted(found.items())) or "none"))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="photic",
@@ -295,6 +303,11 @@ def build_parser() -> argparse.ArgumentParser:
     pr.add_argument("--json", action="store_true",
                     help="print records (problem, omega0, tau, quantity, value, stderr, reference, cv, seconds, passed)")
     pr.set_defaults(func=cmd_problems)
+    pl = sub.add_parser("plugins", help="list installed IOP-model and wave-model plugins",
+                        description="Lists the plugins found through the entry-point groups "
+                                    "photic.iop_models and photic.wave_models (see "
+                                    "engine/src/photic/plugins.py and docs/plugin_example).")
+    pl.set_defaults(func=cmd_plugins)
     bl = sub.add_parser("blend", help="render a .blend file with the Photic Blender add-on (needs bpy)",
                         description="Opens FILE.blend with the bpy module, renders one frame through "
                                     "the Photic render engine of the add-on (as F12 does) and writes a "

@@ -660,8 +660,40 @@ def _run(spec: _Spec, fld: str, fn, *args, **kwargs):
         raise spec.error(fld, str(exc)) from None
 
 
+def _plugin(d: Any, bands, obj: str, prefix: str, in_mixture: bool) -> IOPs | None:
+    """IOPs from an installed plugin model (photic.plugins), or None if there is none."""
+    from . import plugins
+    name = d.get("model") if isinstance(d, Mapping) else None
+    if not isinstance(name, str) or name in _FIELDS:
+        return None
+    fn = plugins.load("iop", name)
+    if fn is None:
+        return None
+    params = {k: v for k, v in d.items() if k not in ("model", "water")}
+    if in_mixture and "water" in d:
+        raise SceneError(obj, f"{prefix}water", "inside a mixture pure water is added once, by "
+                                               "the mixture")
+    try:
+        iops = fn(params, [(b.label, b.center, b.width) for b in bands])
+    except ValueError as exc:
+        raise SceneError(obj, f"{prefix}model", f"plugin '{name}': {exc}") from None
+    if not isinstance(iops, IOPs) or np.shape(iops.absorption) != (len(bands),):
+        raise SceneError(obj, f"{prefix}model", f"plugin '{name}' must return photic.scene.IOPs "
+                                                f"with one absorption value per band")
+    return iops
+
+
 def _constituent(d: Any, bands, obj: str, prefix: str, base_dir, in_mixture: bool) -> IOPs:
+    from_plugin = _plugin(d, bands, obj, prefix, in_mixture)
+    if from_plugin is not None:
+        return from_plugin
     spec = _Spec(d, obj, prefix)
+    name = d.get("model") if isinstance(d, Mapping) else None
+    if isinstance(name, str) and name not in _FIELDS:
+        from . import plugins
+        installed = ", ".join(sorted(plugins.available("iop"))) or "none"
+        raise spec.error("model", f"unknown model {name!r}: one of {', '.join(map(repr, _FIELDS))} "
+                                  f"or an installed IOP-model plugin (installed: {installed})")
     model = spec.choice("model", None, tuple(_FIELDS))
     allowed = _FIELDS[model]
     if in_mixture:

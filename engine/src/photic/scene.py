@@ -50,7 +50,7 @@ PHASE_FUNCTION_PARAMS: dict[str, tuple[str, ...]] = {
 QUANTITIES = ("Ed", "Eu", "Eo", "Eod", "Eou", "radiance", "radiance_distribution")
 
 WATER_TYPES = ("mesh", "ocean")
-SURFACE_KINDS = ("flat", "patch", "waves")
+SURFACE_KINDS = ("flat", "patch", "waves")  # scene files also take "plugin" (read as a patch)
 SKY_TYPES = ("black", "uniform", "cardioidal", "harrison_coombes")
 CAMERA_TYPES = ("perspective", "orthographic")
 FILTER_TYPES = ("box", "gaussian")
@@ -379,6 +379,8 @@ class OceanSurface(_ArrayEq):
     mesh: TriangleMesh | None = None
     period: tuple[float, float] | None = None
     waves: Any = None  # photic.waves.WaveModel for kind "waves"
+    normals: np.ndarray | None = None  # kind "patch": vertex normals (a plugin's), else derived
+    plugin: dict | None = None  # {"plugin": name, "params": {...}} of a patch a plugin made
     roughness: SurfaceRoughness | None = None  # sub-pixel Cox-Munk roughness (path tracing)
 
     def __post_init__(self):
@@ -416,7 +418,7 @@ class OceanSurface(_ArrayEq):
         model's exact ones; a ``"patch"`` has no normals (the core derives them from the mesh).
         """
         if self.kind != "waves":
-            return self.mesh, self.period, None
+            return self.mesh, self.period, self.normals
         from .waves import surface_patch
 
         vertices, triangles, normals = surface_patch(self.waves, float(self.z))
@@ -884,6 +886,12 @@ def _validate_surface(label: str, surface: Any) -> None:
     if surface.kind == "flat":
         return
     _check_mesh(label, "surface.", surface.mesh)
+    if surface.normals is not None:
+        nrm = surface.normals
+        if not isinstance(nrm, np.ndarray) or nrm.shape != surface.mesh.vertices.shape or \
+                not np.all(np.isfinite(nrm)) or np.any(nrm[:, 2] <= 0):
+            raise SceneError(label, "surface.normals", "must be finite (N, 3) vertex normals "
+                                                       "pointing up, one per vertex")
     period = surface.period
     if not isinstance(period, tuple) or len(period) != 2:
         raise SceneError(label, "surface.period", f"must be [Lx, Ly], got {_show(period)}")
@@ -1243,6 +1251,12 @@ def _read_water(label: str, d: dict, bands: list, base_dir: Path) -> WaterBody:
     s = d["surface"]
     if s["kind"] != "waves":
         _only_for(label, s, _WAVE_KEYS, "surface kind 'waves'", "surface.")
+    if s["kind"] != "plugin":
+        _only_for(label, s, ("plugin", "params"), "surface kind 'plugin'", "surface.")
+    else:
+        _only_for(label, s, ("vertices", "triangles", "file", "transform", "period", "z"),
+                  "surface kind 'patch' (a plugin's patch carries its own heights)", "surface.")
+        return _finish_ocean(label, d, iops, ior, _plugin_surface(label, s))
     if s["kind"] in ("flat", "waves"):
         _only_for(label, s, ("vertices", "triangles", "file", "transform", "period"),
                   "surface kind 'patch'", "surface.")
@@ -1255,6 +1269,31 @@ def _read_water(label: str, d: dict, bands: list, base_dir: Path) -> WaterBody:
                                     "its vertices)", "surface.")
         surface = OceanSurface("patch", mesh=_read_mesh(label, s, base_dir, "surface."),
                                period=tuple(float(p) for p in s["period"]))
+    return _finish_ocean(label, d, iops, ior, surface)
+
+
+def _plugin_surface(label: str, s: dict) -> OceanSurface:
+    """A surface patch made by a wave-model plugin (photic.plugins)."""
+    from . import plugins
+    name = s.get("plugin")
+    fn = plugins.load("wave", name) if isinstance(name, str) else None
+    if fn is None:
+        installed = ", ".join(sorted(plugins.available("wave"))) or "none"
+        raise SceneError(label, "surface.plugin", f"no wave-model plugin {_show(name)} is "
+                                                  f"installed (installed: {installed})")
+    params = dict(s.get("params", {}))
+    try:
+        vertices, triangles, normals, period = fn(params)
+    except ValueError as exc:
+        raise SceneError(label, "surface.params", f"plugin '{name}': {exc}") from None
+    return OceanSurface("patch", mesh=TriangleMesh(np.asarray(vertices, float), triangles),
+                        period=tuple(float(p) for p in period),
+                        normals=None if normals is None else np.asarray(normals, float),
+                        plugin={"plugin": name, "params": params})
+
+
+def _finish_ocean(label: str, d: dict, iops, ior: float, surface: OceanSurface) -> WaterBody:
+    s = d["surface"]
     if s.get("roughness") is not None:
         r = s["roughness"]
         surface.roughness = SurfaceRoughness(float(r["wind_speed"]), bool(r.get("anisotropic", False)),
@@ -1434,6 +1473,8 @@ def _water_to_dict(w: WaterBody) -> dict:
         d["surface"] = {"kind": "flat", "z": float(s.z)}
     elif s.kind == "waves":
         d["surface"] = {"kind": "waves", "z": float(s.z), **_wave_model_to_dict(s.waves)}
+    elif s.plugin is not None:
+        d["surface"] = {"kind": "plugin", **s.plugin}
     else:
         d["surface"] = {"kind": "patch", **_mesh_to_dict(s.mesh),
                         "period": [float(p) for p in s.period]}
