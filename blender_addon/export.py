@@ -245,6 +245,18 @@ class _Exporter:
         S = self.photic.scene
         p = obj.original.photic
         owner = _obj(obj.name)
+        if p.iop_source == "MODEL":
+            import json
+            prop = "Photic > IOP Model (photic.iop_model)"
+            try:
+                spec = json.loads(p.iop_model)
+            except ValueError as exc:
+                raise ExportError(owner, prop, f"is not valid JSON: {exc}") from None
+            from photic.iop_models import iops_from_model
+            try:
+                return iops_from_model(spec, [S.Band(*b) for b in self.bands], obj=owner)
+            except S.SceneError as exc:
+                raise ExportError(owner, prop, f"field '{exc.field}': {exc.message}") from None
         a = per_band(owner, p.absorption, p.absorption_bands, "Photic > Absorption",
                      "photic.absorption", self.bands, "absorption coefficient")
         b = per_band(owner, p.scattering, p.scattering_bands, "Photic > Scattering",

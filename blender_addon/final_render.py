@@ -244,5 +244,6 @@ class FinalRender:
         except OSError as exc:
             self.engine.report({"WARNING"}, f"radiometer tables not written to {out_dir}: {exc}")
             return
-        self.summary["tables"] = [str(p) for p in paths]
+        derived = photic.output.write_derived_table(Path(out_dir) / f"{stem}_derived.csv", final)
+        self.summary["tables"] = [str(p) for p in paths] + ([str(derived)] if derived else [])
         print(f"Photic: radiometer tables {paths[0]} and {paths[1]}")

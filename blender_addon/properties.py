@@ -67,8 +67,17 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
                ("PURE_WATER", "Pure Water + Additions",
                 "Pure water (absorption: Pope & Fry 1997, averaged over each band; scattering: "
                 "0.00288 (wavelength/500 nm)^-4.32 per m with the pure-water phase function) "
-                "plus the absorption and scattering given below (e.g. of particles)")],
+                "plus the absorption and scattering given below (e.g. of particles)"),
+               ("MODEL", "IOP Model", "The water community's models (CDOM, particles, Case 1, "
+                                      "mixtures, installed plugins) as described in 'IOP Model' "
+                                      "(the scene format's iop_model, docs/iop-models.md)")],
         description="Where the water's absorption and scattering come from")
+    iop_model: StringProperty(
+        name="IOP Model",
+        default='{"model": "mixture", "components": [{"model": "cdom", "a_ref": 0.05}, '
+                '{"model": "particles", "b_ref": 0.2}]}',
+        description="IOP model description in JSON (docs/iop-models.md), evaluated per band; "
+                    "pure water is included unless \"water\": \"none\"")
     absorption: FloatProperty(
         name="Absorption a", default=0.1, min=0.0, soft_max=10.0, precision=4,
         description="Absorption coefficient a (m^-1), the same in every band unless "

@@ -121,17 +121,20 @@ class PHOTIC_PT_object(PhoticPanel, bpy.types.Panel):
         layout.prop(p, "role")
         if p.role in {"WATER_BODY", "WATER_SURFACE"}:
             layout.prop(p, "iop_source")
-            col = layout.column(align=True)
-            col.prop(p, "absorption")
-            col.prop(p, "absorption_bands")
-            col = layout.column(align=True)
-            col.prop(p, "scattering")
-            col.prop(p, "scattering_bands")
-            layout.prop(p, "phase_function")
-            if p.phase_function == "henyey_greenstein":
-                layout.prop(p, "hg_g")
-            elif p.phase_function == "fournier_forand":
-                layout.prop(p, "ff_backscatter")
+            if p.iop_source == "MODEL":
+                layout.prop(p, "iop_model")
+            else:
+                col = layout.column(align=True)
+                col.prop(p, "absorption")
+                col.prop(p, "absorption_bands")
+                col = layout.column(align=True)
+                col.prop(p, "scattering")
+                col.prop(p, "scattering_bands")
+                layout.prop(p, "phase_function")
+                if p.phase_function == "henyey_greenstein":
+                    layout.prop(p, "hg_g")
+                elif p.phase_function == "fournier_forand":
+                    layout.prop(p, "ff_backscatter")
             layout.prop(p, "ior")
         if p.role == "WATER_SURFACE":
             layout.prop(p, "surface_shape")

@@ -652,3 +652,66 @@ def test_wave_model_sinusoids_and_their_errors(empty):
     p.wave_sinusoids = "0.05:7"  # does not repeat over the 20 m patch
     with pytest.raises(export.ExportError, match="Object 'Sea'"):
         export_current()
+
+
+def test_iop_model_description_on_a_water_object(empty):
+    add_camera()
+    sea = add_sea()
+    sea.photic.iop_source = "MODEL"
+    sea.photic.iop_model = '{"model": "cdom", "a_ref": 0.1, "slope": 0.014}'
+    scene, _ = export_current()
+    from photic.iop_models import iops_from_model
+    expected = iops_from_model({"model": "cdom", "a_ref": 0.1, "slope": 0.014}, scene.bands)
+    np.testing.assert_allclose(scene.water[0].iops.absorption, expected.absorption)
+    sea.photic.iop_model = '{"model": "cdom", "a_ref": -1}'
+    with pytest.raises(export.ExportError, match=r"Object 'Sea'.*IOP Model.*a_ref"):
+        export_current()
+    sea.photic.iop_model = '{"model": cdom}'
+    with pytest.raises(export.ExportError, match="not valid JSON"):
+        export_current()
+
+
+class FakeLayout:
+    """Records what a panel draws; every property it shows must exist on its data."""
+
+    def __init__(self, shown):
+        self.shown = shown
+        self.use_property_split = False
+        self.active = True
+        self.alert = False
+
+    def prop(self, data, name, **kw):
+        assert name in data.bl_rna.properties, (data, name)
+        self.shown.append(name)
+
+    def column(self, **kw):
+        return FakeLayout(self.shown)
+
+    row = box = column
+
+    def label(self, **kw):
+        pass
+
+
+@pytest.mark.parametrize("role", ["WATER_BODY", "WATER_SURFACE", "RADIOMETER", "RADIOMETER_ARRAY"])
+def test_panels_draw_every_property_they_name(empty, role):
+    from types import SimpleNamespace
+
+    from photic_blender import ui
+    add_camera()
+    obj = add_sea()
+    obj.photic.role = role
+    mat = bpy.data.materials.new("M")
+    world = bpy.data.worlds.new("W")
+    empty.world = world
+    shown = []
+    for source, shape, quantity in (("VALUES", "FLAT", "radiance"), ("MODEL", "WAVES", "radiance_distribution"),
+                                    ("PURE_WATER", "MESH", "Ed")):
+        obj.photic.iop_source, obj.photic.quantity = source, quantity
+        if role == "WATER_SURFACE":
+            obj.photic.surface_shape = shape
+        context = SimpleNamespace(engine="PHOTIC", scene=empty, object=obj, material=mat, world=world)
+        for cls in ui.classes:
+            if cls.poll(context):
+                cls.draw(SimpleNamespace(layout=FakeLayout(shown)), context)
+    assert "role" in shown and "integrator" in shown and "sky_model" in shown

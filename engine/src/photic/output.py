@@ -140,4 +140,20 @@ def write_outputs(out_dir, result: RenderResult) -> dict[str, list[Path]]:
         written["images"].append(write_exr(out_dir / f"{_safe(result.scene_name)}_{_safe(cam)}.exr", result, cam))
     if result.radiometers:
         written["tables"].extend(write_radiometer_tables(out_dir, result))
+        derived = write_derived_table(out_dir / f"{_safe(result.scene_name)}_derived.csv", result)
+        if derived is not None:
+            written["tables"].append(derived)
     return written
+
+
+def write_derived_table(path, result: RenderResult) -> Path | None:
+    """Kd, R, mean cosines, Rrs ... that the radiometers allow (photic.derived), as CSV; None
+    when there are none."""
+    from .derived import DerivedError, derive, write_derived_csv
+    try:
+        derived = derive(result)
+    except DerivedError:
+        return None
+    if not derived:
+        return None
+    return write_derived_csv(path, derived, result.bands, f"scene {result.scene_name}")
