@@ -83,6 +83,9 @@ def _material(m, bands):
 
 def _water_props(obj, w) -> None:
     p = obj.photic
+    if not hasattr(w.iops, "absorption"):  # an IOPProfile: layers are not Blender properties yet
+        raise ValueError(f"water '{w.name}': stratified IOPs (an iop_profile) cannot be edited "
+                         f"in Blender yet; render the scene file with 'photic render'")
     p.absorption_bands = _numbers(w.iops.absorption)
     p.ior = w.ior
     if len(w.iops.scattering) > 1:

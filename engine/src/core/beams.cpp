@@ -39,23 +39,50 @@ void Scene::set_forward_cone(double half_angle) {
     cone_half_angle = std::max(0.0, half_angle);
     double xc = 1.0 - std::cos(cone_half_angle);
     for (auto& w : waters) {
-        w.b_path = Spectrum();
+        for (auto& c : w.components) c.f = cone_half_angle > 0.0 ? phases[c.phase].cdf(xc) : 0.0;
         w.majorant = 0.0;
-        for (auto& c : w.components) {
-            c.f = cone_half_angle > 0.0 ? phases[c.phase].cdf(xc) : 0.0;
-            for (int k = 0; k < nbands; ++k) {
-                c.b_path.v[k] = c.b.v[k] * (1.0 - c.f);
-                w.b_path.v[k] += c.b_path.v[k];
+        w.c_beam_min = kInf;
+        double c_mean_min = kInf;
+        for (auto& L : w.layers) {
+            L.b_path = Spectrum();
+            L.comp_b_path.assign(w.components.size(), Spectrum());
+            for (size_t ci = 0; ci < w.components.size(); ++ci) {
+                const double f = w.components[ci].f;
+                for (int k = 0; k < nbands; ++k) {
+                    L.comp_b_path[ci].v[k] = L.comp_b[ci].v[k] * (1.0 - f);
+                    L.b_path.v[k] += L.comp_b_path[ci].v[k];
+                }
             }
+            L.c_path_mean = 0.0;
+            L.a_min = L.a.v[0];
+            L.majorant = 0.0;
+            for (int k = 0; k < nbands; ++k) {
+                L.majorant = std::max(L.majorant, L.b_path.v[k]);
+                w.majorant = std::max(w.majorant, L.b_path.v[k]);
+                L.c_beam.v[k] = L.a.v[k] + L.b_path.v[k];
+                L.c_path.v[k] = L.c_beam.v[k];
+                L.c_path_mean += L.c_path.v[k] / nbands;
+                L.a_min = std::min(L.a_min, L.a.v[k]);
+                w.c_beam_min = std::min(w.c_beam_min, L.c_beam.v[k]);
+            }
+            w.a_min = &L == &w.layers[0] ? L.a_min : std::min(w.a_min, L.a_min);
+            if (L.c_path_mean > 0.0) c_mean_min = std::min(c_mean_min, L.c_path_mean);
         }
-        w.c_path_mean = 0.0;
-        w.a_min = w.a.v[0];
-        for (int k = 0; k < nbands; ++k) {
-            w.majorant = std::max(w.majorant, w.b_path.v[k]);
-            w.c_beam.v[k] = w.a.v[k] + w.b_path.v[k];
-            w.c_path.v[k] = w.c_beam.v[k];
-            w.c_path_mean += w.c_path.v[k] / nbands;
-            w.a_min = std::min(w.a_min, w.a.v[k]);
+        // Beam scattering along segments samples distances at this rate (any rate > 0 is
+        // unbiased); in stratified water the slowest layer's, so the weights stay bounded.
+        w.c_path_mean = !w.stratified() ? w.layers[0].c_path_mean : c_mean_min < kInf ? c_mean_min : 0.0;
+        // Beam-direction MIS: each component's share of all scattering (bands and layers).
+        w.mis_bsum = 0.0;
+        w.mis_wsum = 0.0;
+        for (size_t ci = 0; ci < w.components.size(); ++ci) {
+            double b = 0.0;
+            for (const auto& L : w.layers)
+                for (int k = 0; k < nbands; ++k) {
+                    b += L.comp_b[ci].v[k];
+                    w.mis_bsum += L.comp_b[ci].v[k];
+                }
+            w.components[ci].weight = b;
+            w.mis_wsum += b;
         }
     }
 }
@@ -230,8 +257,7 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         r.p = p;
         r.n = n;
         const Water& w = waters[wi];
-        double cmin = kInf;
-        for (int k = 0; k < nbands; ++k) cmin = std::min(cmin, w.c_beam.v[k]);
+        double cmin = w.c_beam_min;
         double cap = std::min(cmin > 0 ? 30.0 / cmin : kInf, 100.0 * extent_);
         double off = offset_for(p);
         double cs = dot(n, s), T;
@@ -440,7 +466,14 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
         if (occluded(q, beam_sun_dir)) return false;
     }
     out->d = d;
-    for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * std::exp(-w.c_beam.v[k] * l) / (a_eff * md);
+    if (!w.stratified()) {
+        const Spectrum& c = w.layers[0].c_beam;
+        for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * std::exp(-c.v[k] * l) / (a_eff * md);
+    } else {  // the beam's straight path from the surface (y - d l) to y through the layers
+        Spectrum tau;
+        w.add_optical_depth(&WaterLayer::c_beam, y.z - d.z * l, y.z, l, nbands, &tau);
+        for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * std::exp(-tau.v[k]) / (a_eff * md);
+    }
     return true;
 }
 
@@ -460,7 +493,14 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max) const {
             }
             if (visible) {
                 out[n].d = fd;
-                for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * std::exp(-w.c_beam.v[k] * l);
+                if (!w.stratified()) {
+                    const Spectrum& c = w.layers[0].c_beam;
+                    for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * std::exp(-c.v[k] * l);
+                } else {  // exp(-int c_beam dl) from the surface down through the layers
+                    Spectrum tau;
+                    w.add_optical_depth(&WaterLayer::c_beam, ocean_z, x.z, l, nbands, &tau);
+                    for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * std::exp(-tau.v[k]);
+                }
                 ++n;
             }
         }

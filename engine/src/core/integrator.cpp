@@ -58,7 +58,19 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
         pdf = ak * std::exp(-ak * s_) / norm;
     }
     BeamSample beams[kMaxBeams];
-    int n = beams_at(o + d * t, medium, beams, kMaxBeams);
+    const Vec3 x = o + d * t;
+    int n = beams_at(x, medium, beams, kMaxBeams);
+    if (n == 0) return;
+    // The local scattering at x and the attenuation back to o (through the layers crossed).
+    const WaterLayer& L = w.layer_at(x.z);
+    double att[kMaxBands];
+    if (!w.stratified()) {
+        for (int kb = 0; kb < nbands; ++kb) att[kb] = std::exp(-L.c_path.v[kb] * t);
+    } else {
+        Spectrum tau;
+        w.add_optical_depth(&WaterLayer::c_path, o.z, x.z, t, nbands, &tau);
+        for (int kb = 0; kb < nbands; ++kb) att[kb] = std::exp(-tau.v[kb]);
+    }
     const double cone_x = 1.0 - std::cos(cone_half_angle);
     for (int j = 0; j < n; ++j) {
         double xs = std::max(0.0, 1.0 + dot(beams[j].d, d));  // 1 - cos(psi)
@@ -67,8 +79,8 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
         for (size_t ci = 0; ci < w.components.size(); ++ci) pv[ci] = phases[w.components[ci].phase].eval(xs);
         for (int kb = 0; kb < nbands; ++kb) {
             double bp = 0.0;
-            for (size_t ci = 0; ci < w.components.size(); ++ci) bp += w.components[ci].b.v[kb] * pv[ci];
-            out->v[kb] += std::exp(-w.c_path.v[kb] * t) * bp * beams[j].e.v[kb] / pdf;
+            for (size_t ci = 0; ci < w.components.size(); ++ci) bp += L.comp_b[ci].v[kb] * pv[ci];
+            out->v[kb] += att[kb] * bp * beams[j].e.v[kb] / pdf;
         }
     }
 }
@@ -93,25 +105,16 @@ bool Scene::strongest_beam(const Vec3& x, int medium, Vec3* d) const {
 double Scene::beam_direction_pdf(const Water& w, const Vec3& beam_d, const Vec3& omega) const {
     // Looking along omega at light of a beam along beam_d: scattering angle cos = -beam_d . omega.
     double x = std::max(0.0, 1.0 + dot(beam_d, omega));
-    double p = 0.0, bsum = 0.0;
-    for (const auto& c : w.components) {
-        double b = 0.0;
-        for (int k = 0; k < nbands; ++k) b += c.b.v[k];
-        p += b * phases[c.phase].eval(x);
-        bsum += b;
-    }
-    return bsum > 0.0 ? p / bsum : 0.0;
+    double p = 0.0;
+    for (const auto& c : w.components) p += c.weight * phases[c.phase].eval(x);
+    return w.mis_wsum > 0.0 ? p / w.mis_wsum : 0.0;
 }
 
 Vec3 Scene::sample_beam_direction(const Water& w, const Vec3& beam_d, Rng& rng) const {
-    double bsum = 0.0;
-    for (const auto& c : w.components)
-        for (int k = 0; k < nbands; ++k) bsum += c.b.v[k];
-    double u = rng.uniform() * bsum;
+    double u = rng.uniform() * w.mis_bsum;
     size_t pick = 0;
     for (; pick + 1 < w.components.size(); ++pick) {
-        double b = 0.0;
-        for (int k = 0; k < nbands; ++k) b += w.components[pick].b.v[k];
+        double b = w.components[pick].weight;
         if (u < b) break;
         u -= b;
     }
@@ -126,13 +129,33 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
     Spectrum beta = Spectrum::constant(1.0);
     int depth = 0;
     c.paths++;
-    // Absorption is applied lazily: `pending` metres travelled in the current water body
-    // since beta last carried exp(-a s). Light is scored in water only by the beam terms
-    // (which apply it themselves); Russian roulette uses a bound meanwhile.
+    // Absorption is applied lazily: since beta last carried it, `pending` metres travelled in
+    // homogeneous water (factor exp(-a s)), or the absorption optical depth `tau_a` per band
+    // in stratified water, added exactly segment by segment through the layers crossed
+    // (factor exp(-tau_a)). Light is scored in water only by the beam terms (which apply it
+    // themselves); Russian roulette uses a bound meanwhile.
     double pending = 0.0;
+    Spectrum tau_a;
+    auto absorbed = [&](const Water& w, int k) {  // the factor not yet carried by beta
+        return w.stratified() ? std::exp(-tau_a.v[k]) : std::exp(-w.layers[0].a.v[k] * pending);
+    };
+    auto absorbed_bound = [&](const Water& w) {   // >= absorbed(w, k) in every band
+        if (!w.stratified()) return std::exp(-w.a_min * pending);
+        double t = tau_a.v[0];
+        for (int k = 1; k < nb; ++k) t = std::min(t, tau_a.v[k]);
+        return std::exp(-t);
+    };
+    auto travel = [&](const Water& w, const Vec3& from, const Vec3& dir, double t) {  // stratified
+        w.add_optical_depth(&WaterLayer::a, from.z, from.z + dir.z * t, t, nb, &tau_a);
+    };
     auto flush = [&](const Water& w) {
+        if (w.stratified()) {
+            for (int k = 0; k < nb; ++k) beta.v[k] *= std::exp(-tau_a.v[k]);
+            tau_a = Spectrum();
+            return;
+        }
         if (pending > 0.0)
-            for (int k = 0; k < nb; ++k) beta.v[k] *= std::exp(-w.a.v[k] * pending);
+            for (int k = 0; k < nb; ++k) beta.v[k] *= std::exp(-w.layers[0].a.v[k] * pending);
         pending = 0.0;
     };
     const double cone_x = 1.0 - std::cos(cone_half_angle);
@@ -144,11 +167,20 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
         double t_hit;
         if (medium >= 0) {
             const Water& w = waters[medium];
+            const bool strat = w.stratified();
+            const WaterLayer* L = &w.layers[0];  // the layer at the tentative collision
             bool scattered = false;
             double t_cur = 0.0;
             double dt = kInf;
             bool clipped = false;
-            if (w.majorant > 0.0) dt = -std::log(1.0 - rng.uniform()) / w.majorant;
+            // Distance from o + d t_cur to the next tentative collision: the water's majorant,
+            // or in stratified water each layer's own (regional tracking through the layers).
+            int lc = 0;
+            auto flight = [&]() {
+                double xi = -std::log(1.0 - rng.uniform());
+                return strat ? w.free_flight(o.z + d.z * t_cur, d.z, xi, &lc) : xi / w.majorant;
+            };
+            if (w.majorant > 0.0) dt = flight();
             if (!hybrid && w.majorant > 0.0) {
                 // Trace only to the first tentative collision: short rays are cheaper, and most
                 // flights in water end in the volume.
@@ -164,28 +196,30 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 Spectrum I;
                 beam_scatter_along(o, d, t_hit, medium, rng, &I);
                 for (int kb = 0; kb < nb; ++kb)
-                    out.beam_volume.v[kb] += bv_weight * beta.v[kb] * std::exp(-w.a.v[kb] * pending) * I.v[kb];
+                    out.beam_volume.v[kb] += bv_weight * beta.v[kb] * absorbed(w, kb) * I.v[kb];
             }
             bv_weight = 1.0;
 
             while (t_cur + dt < t_hit) {
                 t_cur += dt;
-                pending += dt;
+                if (strat) L = &w.layers[lc];
+                else pending += dt;
+                const double maj = strat ? L->majorant : w.majorant;
                 // Any probability fixed before the decision keeps the estimate unbiased;
                 // weighting by the (not yet absorbed) throughput keeps band weights tame.
                 double num = 0.0, den = 0.0;
                 for (int k = 0; k < nb; ++k) {
-                    num += beta.v[k] * (w.b_path.v[k] / w.majorant);
+                    num += beta.v[k] * (L->b_path.v[k] / maj);
                     den += beta.v[k];
                 }
                 if (!(den > 0.0)) return out;
                 double p_real = num / den;
                 if (p_real >= 1.0 || rng.uniform() < p_real) {
-                    for (int k = 0; k < nb; ++k) beta.v[k] *= (w.b_path.v[k] / w.majorant) / p_real;
+                    for (int k = 0; k < nb; ++k) beta.v[k] *= (L->b_path.v[k] / maj) / p_real;
                     scattered = true;
                     break;
                 }
-                for (int k = 0; k < nb; ++k) beta.v[k] *= (1.0 - w.b_path.v[k] / w.majorant) / (1.0 - p_real);
+                for (int k = 0; k < nb; ++k) beta.v[k] *= (1.0 - L->b_path.v[k] / maj) / (1.0 - p_real);
                 if (clipped) {  // a null collision: now find the surface beyond it
                     h = intersect(o + d * t_cur, d);
                     c.segments++;
@@ -193,10 +227,11 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     if (h.valid) h.t += t_cur;
                     t_hit = h.valid ? h.t : kInf;
                 }
-                dt = -std::log(1.0 - rng.uniform()) / w.majorant;
+                dt = flight();
             }
             if (scattered) {
                 if (++depth > max_depth) return out;
+                if (strat) travel(w, o, d, t_cur);
                 o = o + d * t_cur;
                 // Choose a mixture component by its throughput-weighted share of scattering,
                 // sample it (outside the forward cone), and weight each band by its own
@@ -213,7 +248,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     for (size_t ci = 0; ci < nc; ++ci) {
                         double sacc = 0.0;
                         for (int k = 0; k < nb; ++k)
-                            if (w.b_path.v[k] > 0) sacc += beta.v[k] * w.components[ci].b_path.v[k] / w.b_path.v[k];
+                            if (L->b_path.v[k] > 0) sacc += beta.v[k] * L->comp_b_path[ci].v[k] / L->b_path.v[k];
                         q[ci] = wsum > 0 ? sacc / wsum : 0.0;
                         qsum += q[ci];
                     }
@@ -235,10 +270,10 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     return pdf;
                 };
                 auto band_phase = [&](int k) {
-                    if (!(w.b_path.v[k] > 0)) return 0.0;
+                    if (!(L->b_path.v[k] > 0)) return 0.0;
                     double pk = 0.0;
-                    for (size_t ci = 0; ci < nc; ++ci) pk += w.components[ci].b_path.v[k] * pv[ci];
-                    return pk / w.b_path.v[k];
+                    for (size_t ci = 0; ci < nc; ++ci) pk += L->comp_b_path[ci].v[k] * pv[ci];
+                    return pk / L->b_path.v[k];
                 };
                 double u = rng.uniform() * qsum;
                 size_t pick = 0;
@@ -270,7 +305,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                         Spectrum I;
                         beam_scatter_along(o, wb, hb.valid ? hb.t : kInf, medium, rng, &I);
                         for (int k = 0; k < nb; ++k)
-                            out.beam_volume.v[k] += beta_pre.v[k] * band_phase(k) * std::exp(-w.a.v[k] * pending) *
+                            out.beam_volume.v[k] += beta_pre.v[k] * band_phase(k) * absorbed(w, k) *
                                                     I.v[k] / (pa_b + pb_b);
                     }
                 }
@@ -278,14 +313,15 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 sun_covered = false;   // no straight connection to the sun from inside water
                 beam_covered = hybrid; // the beams already count the sun arriving here straight
                 if (depth >= rr_depth) {
-                    double q = std::min(0.95, max_component(beta, nb) * std::exp(-w.a_min * pending));
+                    double q = std::min(0.95, max_component(beta, nb) * absorbed_bound(w));
                     if (!(rng.uniform() < q)) return out;
                     for (int k = 0; k < nb; ++k) beta.v[k] /= q;
                 }
                 continue;
             }
             if (!h.valid) return out;  // lost in infinitely deep water
-            pending += t_hit - t_cur;
+            if (strat) travel(w, o, d, t_hit);
+            else pending += t_hit - t_cur;
         } else {
             h = intersect(o, d);
             c.segments++;
@@ -424,7 +460,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             sun_covered = false;  // a specular event: NEE could not have seen this path
         }
         if (depth >= rr_depth) {
-            double bound = medium >= 0 ? std::exp(-waters[medium].a_min * pending) : 1.0;
+            double bound = medium >= 0 ? absorbed_bound(waters[medium]) : 1.0;
             double q = std::min(0.95, max_component(beta, nb) * bound);
             if (!(q > 0.0) || !(rng.uniform() < q)) return out;
             for (int k = 0; k < nb; ++k) beta.v[k] /= q;

@@ -1,4 +1,5 @@
 // Python bindings of the compiled core (photic._core). Heavy calls release the GIL.
+#include <cmath>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -164,19 +165,41 @@ PYBIND11_MODULE(_core, m) {
         .def("add_water", [](Scene& s, double ior, DArray a, std::vector<std::pair<int, DArray>> comps) {
             Water w;
             w.ior = ior;
-            w.a = to_spectrum(a, s.nbands, "absorption");
+            WaterLayer layer;
+            layer.a = to_spectrum(a, s.nbands, "absorption");
             if (comps.size() > 16) throw std::invalid_argument("at most 16 scattering components");
             for (auto& [pid, b] : comps) {
                 if (pid < 0 || pid >= int(s.phases.size())) throw std::invalid_argument("bad phase index");
                 ScatterComponent c;
                 c.phase = pid;
-                c.b = to_spectrum(b, s.nbands, "scattering");
-                for (int k = 0; k < s.nbands; ++k) w.b.v[k] += c.b.v[k];
+                layer.comp_b.push_back(to_spectrum(b, s.nbands, "scattering"));
+                for (int k = 0; k < s.nbands; ++k) layer.b.v[k] += layer.comp_b.back().v[k];
                 w.components.push_back(c);
             }
+            w.layers.push_back(layer);
             s.waters.push_back(w);  // path/beam coefficients: Scene::set_forward_cone at commit
             return int(s.waters.size()) - 1;
-        }, py::arg("ior"), py::arg("absorption"), py::arg("components"))
+        }, py::arg("ior"), py::arg("absorption"), py::arg("components"),
+           "A water body; its IOPs hold everywhere, or above the first layer added below it.")
+        .def("add_water_layer", [](Scene& s, int water, double z_top, DArray a, std::vector<DArray> b) {
+            if (water < 0 || water >= int(s.waters.size())) throw std::invalid_argument("bad water index");
+            Water& w = s.waters[water];
+            if (!std::isfinite(z_top) || !(z_top < w.layers.back().z_top))
+                throw std::invalid_argument("layer tops must be finite and strictly descending");
+            if (b.size() != w.components.size())
+                throw std::invalid_argument("a layer needs one scattering spectrum per component of the water");
+            WaterLayer layer;
+            layer.z_top = z_top;
+            layer.a = to_spectrum(a, s.nbands, "absorption");
+            for (auto& bc : b) {
+                layer.comp_b.push_back(to_spectrum(bc, s.nbands, "scattering"));
+                for (int k = 0; k < s.nbands; ++k) layer.b.v[k] += layer.comp_b.back().v[k];
+            }
+            w.layers.push_back(layer);
+            return int(w.layers.size()) - 1;
+        }, py::arg("water"), py::arg("z_top"), py::arg("absorption"), py::arg("scattering"),
+           "A layer of stratified water below the previous one: its IOPs for z <= z_top (m), one "
+           "scattering spectrum per component (the components' phase functions are the water's).")
         .def("add_mesh", [](Scene& s, FArray v, UArray t, int kind, int index) {
             if (v.ndim() != 2 || v.shape(1) != 3 || t.ndim() != 2 || t.shape(1) != 3)
                 throw std::invalid_argument("vertices and triangles must be (N, 3) arrays");

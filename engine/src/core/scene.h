@@ -2,6 +2,7 @@
 // Built once from Python (photic.compile), then traced from many threads without the GIL.
 #pragma once
 #include <embree3/rtcore.h>
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cstdint>
@@ -28,23 +29,97 @@ struct Material {  // Lambertian
 };
 
 struct ScatterComponent {
-    int phase = 0;   // index into Scene::phases
-    Spectrum b;      // scattering coefficient per band, 1/m
+    int phase = 0;   // index into Scene::phases (the same in every layer of a water body)
     double f = 0.0;  // fraction of its phase function inside the forward cone (kept in beams)
-    Spectrum b_path; // b (1 - f): what path tracing scatters
+    double weight = 0.0;  // sum of its b over bands and layers: its share in beam-direction MIS
 };
 
-struct Water {
-    double ior = 1.34;
+// The IOPs of one horizontal layer of a water body. Homogeneous water has one layer; stratified
+// water has several, piecewise constant in z (photic.scene.IOPProfile).
+struct WaterLayer {
+    double z_top = kInf;                 // upper boundary (m); the first layer has no upper limit
     Spectrum a;                          // absorption per band, 1/m
     Spectrum b;                          // total scattering per band, 1/m
-    std::vector<ScatterComponent> components;
-    double majorant = 0.0;               // >= b_path in every band (delta tracking)
+    std::vector<Spectrum> comp_b;        // per component of Water::components: b per band
+    std::vector<Spectrum> comp_b_path;   // per component: b (1 - f), what path tracing scatters
     double a_min = 0.0;                  // smallest absorption over the bands
+    double majorant = 0.0;               // largest b_path over the bands (regional tracking)
     Spectrum b_path;                     // scattering sampled by paths: sum of b (1 - f)
     Spectrum c_beam;                     // beam attenuation a + b (1 - f)
     Spectrum c_path;                     // a + b_path: attenuation of light along a path
     double c_path_mean = 0.0;
+};
+
+struct Water {
+    double ior = 1.34;
+    std::vector<ScatterComponent> components;
+    // Layers from the top down: layers[i] holds layers[i+1].z_top < z <= layers[i].z_top, the
+    // last one extends downwards without limit and the first one upwards. One layer:
+    // homogeneous water (the plain code paths).
+    std::vector<WaterLayer> layers;
+    double majorant = 0.0;               // >= b_path in every band and layer (delta tracking)
+    double a_min = 0.0;                  // smallest absorption over the bands and layers
+    double c_path_mean = 0.0;            // homogeneous: the layer's; stratified: smallest > 0
+    double c_beam_min = 0.0;             // smallest beam attenuation over bands and layers
+    double mis_bsum = 0.0;               // sum of all b (beam-direction MIS sampling)
+    double mis_wsum = 0.0;               // sum of the components' weights (its pdf)
+
+    bool stratified() const { return layers.size() > 1; }
+    const WaterLayer& layer_at(double z) const { return layers[layer_index(z)]; }
+    int layer_index(double z) const {
+        int lo = 1, hi = int(layers.size());  // the first layer i >= 1 with z_top < z, minus one
+        while (lo < hi) {
+            int mid = (lo + hi) / 2;
+            if (layers[mid].z_top >= z) lo = mid + 1; else hi = mid;
+        }
+        return lo - 1;
+    }
+    // Regional delta tracking through the layers: the distance from height z, along a
+    // direction with vertical component dz, at which the optical depth of the layers'
+    // majorants reaches xi (an Exp(1) sample), and the layer it lies in; kInf if never.
+    double free_flight(double z, double dz, double xi, int* layer) const {
+        const int n = int(layers.size());
+        int i = layer_index(z);
+        double t = 0.0;
+        for (;;) {
+            const WaterLayer& L = layers[i];
+            int next = -1;
+            double s = kInf, zb = z;  // distance to the layer's boundary along the ray
+            if (dz < 0.0 && i + 1 < n) { next = i + 1; zb = layers[next].z_top; }
+            else if (dz > 0.0 && i > 0) { next = i - 1; zb = L.z_top; }
+            if (next >= 0) s = std::max(0.0, (zb - z) / dz);
+            if (L.majorant > 0.0 && xi < L.majorant * s) {
+                *layer = i;
+                return t + xi / L.majorant;
+            }
+            if (next < 0) return kInf;
+            xi -= L.majorant * s;
+            t += s;
+            z = zb;
+            i = next;
+        }
+    }
+    // Adds the optical depth of one coefficient (e.g. &WaterLayer::a) over a straight segment
+    // of length len from height z0 to z1, per band: closed form, layer by layer.
+    void add_optical_depth(Spectrum WaterLayer::*coef, double z0, double z1, double len, int nb,
+                           Spectrum* tau) const {
+        if (layers.size() == 1 || z0 == z1) {
+            const Spectrum& c = layer_at(z0).*coef;
+            for (int k = 0; k < nb; ++k) tau->v[k] += c.v[k] * len;
+            return;
+        }
+        double zlo = std::min(z0, z1), zhi = std::max(z0, z1), inv = len / (zhi - zlo);
+        for (int i = layer_index(zhi), n = int(layers.size()); i < n; ++i) {
+            double top = i == 0 ? zhi : std::min(zhi, layers[i].z_top);
+            double bottom = i + 1 < n ? std::max(zlo, layers[i + 1].z_top) : zlo;
+            if (top > bottom) {
+                const Spectrum& c = layers[i].*coef;
+                double l = (top - bottom) * inv;
+                for (int k = 0; k < nb; ++k) tau->v[k] += c.v[k] * l;
+            }
+            if (bottom <= zlo) break;
+        }
+    }
 };
 
 enum class SurfaceKind : int { kOpaque = 0, kWaterBoundary = 1 };

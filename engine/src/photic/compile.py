@@ -10,7 +10,7 @@ import numpy as np
 
 from . import _core
 from .phase import make_core_phase
-from .scene import Scene
+from .scene import IOPProfile, Scene
 
 QUANTITY_CODES = {"Ed": 0, "Eu": 1, "Eo": 2, "Eod": 3, "Eou": 4,
                   "radiance": 5, "radiance_distribution": 6}
@@ -60,13 +60,20 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
 
     water_index = {}
     for w in scene.water:
+        # Stratified water: the first layer makes the water body, the others go below it
+        # (every layer has the same components: phase functions, in the same order).
+        layers = w.iops.layers if isinstance(w.iops, IOPProfile) else [w.iops]
         comps = []
-        for comp in w.iops.scattering:
+        for comp in layers[0].scattering:
             pid = core.add_phase(make_core_phase(comp.phase.type, comp.phase.params))
             comps.append((pid, sel(comp.b)))
         if not comps:  # no scattering component: a purely absorbing body
             comps.append((core.add_phase(make_core_phase("isotropic")), np.zeros(nb)))
-        water_index[w.name] = core.add_water(float(w.ior), sel(w.iops.absorption), comps)
+        wi = core.add_water(float(w.ior), sel(layers[0].absorption), comps)
+        for z_top, layer in zip(np.asarray(w.iops.z_top)[1:] if len(layers) > 1 else [], layers[1:]):
+            b = [sel(c.b) for c in layer.scattering] or [np.zeros(nb)]
+            core.add_water_layer(wi, float(z_top), sel(layer.absorption), b)
+        water_index[w.name] = wi
 
     for m in scene.meshes:
         core.add_mesh(np.asarray(m.mesh.vertices, np.float32), np.asarray(m.mesh.triangles, np.uint32),

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .compile import band_groups, compile_scene
-from .scene import Scene, SceneError
+from .scene import IOPProfile, Scene, SceneError
 
 RADIOMETER_PASS = 1 << 16  # samples per radiometer pass (a multiple of the core's chunk)
 UNITS_RADIANCE = "W m^-2 sr^-1 (per unit of the band's source spectrum, e.g. nm^-1)"
@@ -87,14 +87,32 @@ def optical_depth_scale(scene: Scene) -> float:
     mesh height; infinite for a bottomless ocean)."""
     tau = 0.0
     for w in scene.water:
-        c = float(np.max(np.asarray(w.iops.absorption) + np.asarray(w.iops.total_scattering)))
         if w.type == "ocean":
             depth = np.inf if w.bottom_depth is None else float(w.bottom_depth)
+            top = float(w.surface.z)
         else:
             z = np.asarray(w.mesh.vertices)[:, 2]
             depth = float(z.max() - z.min())
+            top = float(z.max())
+        if isinstance(w.iops, IOPProfile):  # stratified: the vertical column's optical depth
+            tau = max(tau, _profile_optical_depth(w.iops, top, top - depth))
+            continue
+        c = float(np.max(np.asarray(w.iops.absorption) + np.asarray(w.iops.total_scattering)))
         tau = max(tau, c * depth if c > 0 else 0.0)
     return tau
+
+
+def _profile_optical_depth(profile: IOPProfile, z_hi: float, z_lo: float) -> float:
+    """Largest over bands of int (a + b) dz from z_lo to z_hi (m) through the layers."""
+    tops = np.asarray(profile.z_top, dtype=np.float64)
+    total = 0.0
+    for i, layer in enumerate(profile.layers):
+        hi = z_hi if i == 0 else min(z_hi, tops[i])
+        lo = max(z_lo, tops[i + 1]) if i + 1 < len(tops) else z_lo
+        if hi > lo:
+            c = np.asarray(layer.absorption) + np.asarray(layer.total_scattering)
+            total = total + np.array([ck * (hi - lo) if ck > 0 else 0.0 for ck in c])
+    return float(np.max(total))
 
 
 AUTO_CONE_TAU = 10.0       # optically deeper than this: use a forward cone

@@ -30,7 +30,7 @@ import numpy as np
 
 __all__ = [
     "FORMAT_VERSION", "PHASE_FUNCTION_PARAMS", "QUANTITIES", "SceneError", "Band", "Material",
-    "PhaseFunction", "ScatteringComponent", "IOPs", "TriangleMesh", "MeshObject",
+    "PhaseFunction", "ScatteringComponent", "IOPs", "IOPProfile", "TriangleMesh", "MeshObject",
     "OceanSurface", "SurfaceRoughness", "WaterBody", "Sun", "Sky", "Camera", "Radiometer", "RadiometerArray",
     "Settings", "Scene", "check_closed_mesh", "load_scene", "save_scene", "scene_schema",
 ]
@@ -50,6 +50,7 @@ PHASE_FUNCTION_PARAMS: dict[str, tuple[str, ...]] = {
 QUANTITIES = ("Ed", "Eu", "Eo", "Eod", "Eou", "radiance", "radiance_distribution")
 
 WATER_TYPES = ("mesh", "ocean")
+MAX_COMPONENTS = 16  # scattering components per water body (the compiled core's limit)
 SURFACE_KINDS = ("flat", "patch", "waves")  # scene files also take "plugin" (read as a patch)
 SKY_TYPES = ("black", "uniform", "cardioidal", "harrison_coombes")
 CAMERA_TYPES = ("perspective", "orthographic")
@@ -312,6 +313,40 @@ class IOPs(_ArrayEq):
 
 
 @dataclass(eq=False)
+class IOPProfile(_ArrayEq):
+    """Stratified water: IOPs in horizontal layers, each homogeneous (piecewise constant in z).
+
+    ``z_top`` (m, world z, strictly descending) is the top of each layer: layer ``i`` holds
+    ``z_top[i+1] < z <= z_top[i]``; the first layer's IOPs also apply above ``z_top[0]`` and
+    the last layer extends downwards without limit. Every layer has the same scattering
+    components (the same phase functions in the same order); only the absorption and each
+    component's ``b`` differ between layers. A water body takes an ``IOPProfile`` in place of
+    its ``IOPs``.
+
+    Examples
+    --------
+    >>> water = PhaseFunction("pure_water")
+    >>> IOPProfile([0.0, -5.0], [IOPs([0.1], [ScatteringComponent([0.2], water)]),
+    ...                          IOPs([0.4], [ScatteringComponent([1.0], water)])])
+    """
+
+    z_top: np.ndarray
+    layers: list[IOPs] = field(default_factory=list)
+
+    def __post_init__(self):
+        self.z_top = _as_floats(self.z_top)
+
+    def layer_index(self, z: float) -> int:
+        """Index of the layer holding height ``z`` (m)."""
+        tops = np.asarray(self.z_top, dtype=np.float64)
+        return int(np.count_nonzero(tops[1:] >= z))
+
+    def at(self, z: float) -> IOPs:
+        """The IOPs at height ``z`` (m)."""
+        return self.layers[self.layer_index(z)]
+
+
+@dataclass(eq=False)
 class TriangleMesh(_ArrayEq):
     """A triangle mesh: ``vertices`` float64 (N, 3) in m, ``triangles`` int64 (M, 3).
 
@@ -428,11 +463,12 @@ class OceanSurface(_ArrayEq):
 @dataclass(eq=False)
 class WaterBody(_ArrayEq):
     """A water body: type ``"mesh"`` (closed ``mesh``) or ``"ocean"`` (``surface``, optional
-    flat bottom at ``surface.z - bottom_depth`` made of ``bottom_material``)."""
+    flat bottom at ``surface.z - bottom_depth`` made of ``bottom_material``). ``iops`` is an
+    ``IOPs`` (homogeneous water) or an ``IOPProfile`` (stratified water)."""
 
     name: str
     type: str
-    iops: IOPs
+    iops: IOPs | IOPProfile
     ior: float = 1.34
     mesh: TriangleMesh | None = None
     surface: OceanSurface | None = None
@@ -821,20 +857,71 @@ def _validate_phase(label: str, prefix: str, phase: Any) -> None:
                     phase.params["backscatter_fraction"], 1e-4, 0.15)
 
 
-def _validate_iops(label: str, iops: Any, nbands: int) -> None:
+def _validate_iops(label: str, iops: Any, nbands: int, fld: str = "iops") -> None:
     if not isinstance(iops, IOPs):
-        raise SceneError(label, "iops", "an IOPs is required")
-    _check_per_band(label, "iops.absorption", iops.absorption, nbands)
+        raise SceneError(label, fld, "an IOPs or an IOPProfile is required" if fld == "iops"
+                         else "an IOPs is required")
+    _check_per_band(label, f"{fld}.absorption", iops.absorption, nbands)
+    if not isinstance(iops.scattering, list):
+        raise SceneError(label, f"{fld}.scattering", f"must be a list of ScatteringComponent, "
+                                                     f"got {_show(iops.scattering)}")
+    if len(iops.scattering) > MAX_COMPONENTS:
+        raise SceneError(label, f"{fld}.scattering", f"has {len(iops.scattering)} components; "
+                                                     f"at most {MAX_COMPONENTS} are supported")
     for i, component in enumerate(iops.scattering):
-        prefix = f"iops.scattering[{i}]"
+        prefix = f"{fld}.scattering[{i}]"
+        if not isinstance(component, ScatteringComponent):
+            raise SceneError(label, prefix, f"must be a ScatteringComponent, got {_show(component)}")
         _check_per_band(label, f"{prefix}.b", component.b, nbands)
         _validate_phase(label, f"{prefix}.phase.", component.phase)
+
+
+def _validate_profile(label: str, profile: IOPProfile, nbands: int) -> None:
+    """Layer tops finite and strictly descending, one valid IOPs per layer, and the same
+    phase functions (in the same order) in every layer."""
+    z = profile.z_top
+    if not isinstance(z, np.ndarray) or z.ndim != 1 or z.dtype.kind not in "fiu" or z.size == 0:
+        raise SceneError(label, "iop_profile.z_top", f"must be a non-empty list of layer tops "
+                                                     f"(m), got {_show(z)}")
+    for i, x in enumerate(z.tolist()):
+        _check_real(label, f"iop_profile.z_top[{i}]", x)
+        if i > 0 and not x < z[i - 1]:
+            raise SceneError(label, f"iop_profile.z_top[{i}]",
+                             f"must be below z_top[{i - 1}] = {_num(z[i - 1])} m (layer tops "
+                             f"run strictly downwards), got {_show(x)}")
+    layers = profile.layers
+    if not isinstance(layers, list) or len(layers) != z.size:
+        count = _entries(len(layers)) if isinstance(layers, list) else _show(layers)
+        raise SceneError(label, "iop_profile.layers", f"needs one IOPs per layer top: z_top has "
+                                                      f"{_entries(z.size)}, layers has {count}")
+    for i, layer in enumerate(layers):
+        _validate_iops(label, layer, nbands, f"iop_profile.layers[{i}].iops")
+    first = layers[0].scattering
+    for i, layer in enumerate(layers[1:], start=1):
+        fld = f"iop_profile.layers[{i}].iops.scattering"
+        if len(layer.scattering) != len(first):
+            raise SceneError(label, fld, f"has {len(layer.scattering)} component(s) but layer 0 "
+                                         f"has {len(first)}: every layer needs the same "
+                                         f"components (phase functions), with b = 0 where absent")
+        for j, (mine, ref) in enumerate(zip(layer.scattering, first)):
+            if mine.phase != ref.phase:
+                raise SceneError(label, f"{fld}[{j}].phase",
+                                 f"is {_phase_text(mine.phase)} but layer 0's component {j} is "
+                                 f"{_phase_text(ref.phase)}: layers may differ only in a and b")
+
+
+def _phase_text(p: PhaseFunction) -> str:
+    params = ", ".join(f"{k}={_num(v)}" for k, v in p.params.items())
+    return f"{p.type!r}" + (f" ({params})" if params else "")
 
 
 def _validate_water(label: str, w: WaterBody, nbands: int, materials: dict) -> None:
     _check_choice(label, "type", w.type, WATER_TYPES)
     _check_real(label, "ior", w.ior, 1.0)
-    _validate_iops(label, w.iops, nbands)
+    if isinstance(w.iops, IOPProfile):
+        _validate_profile(label, w.iops, nbands)
+    else:
+        _validate_iops(label, w.iops, nbands)
     if w.type == "mesh":
         for attr in ("surface", "bottom_depth", "bottom_material"):
             if getattr(w, attr) is not None:
@@ -1093,6 +1180,14 @@ def _schema_message(error) -> tuple[list, str]:
         return parts, f"must have {count}, got {len(value)}"
     if kind == "minLength":
         return parts, "must not be empty"
+    if kind == "oneOf" and all(set(sub) == {"required"} for sub in error.validator_value):
+        # exactly one of several alternative keys (e.g. 'iops', 'iop_model', 'iop_profile')
+        keys = [sub["required"][0] for sub in error.validator_value]
+        given = [k for k in keys if isinstance(value, dict) and k in value]
+        choice = ", ".join(f"'{k}'" for k in keys)
+        if not given:
+            return parts + keys[:1], f"required field is missing: give one of {choice}"
+        return parts + given[1:2], f"give only one of {choice}, not {' and '.join(map(repr, given))}"
     return parts, error.message
 
 
@@ -1219,20 +1314,41 @@ def _read_phase(d: dict) -> PhaseFunction:
     return PhaseFunction(d["type"], params)
 
 
-def _read_iops(label: str, d: dict, nbands: int) -> IOPs:
-    absorption = _per_band(label, "iops.absorption", d["absorption"], nbands)
+def _read_iops(label: str, d: dict, nbands: int, fld: str = "iops") -> IOPs:
+    absorption = _per_band(label, f"{fld}.absorption", d["absorption"], nbands)
     if "b" in d:
         if "scattering" in d:
-            raise SceneError(label, "iops.b", "give either 'scattering' or the shorthand 'b' "
-                                              "and 'phase', not both")
-        components = [ScatteringComponent(_per_band(label, "iops.b", d["b"], nbands),
+            raise SceneError(label, f"{fld}.b", "give either 'scattering' or the shorthand 'b' "
+                                                "and 'phase', not both")
+        components = [ScatteringComponent(_per_band(label, f"{fld}.b", d["b"], nbands),
                                           _read_phase(d["phase"]))]
     else:
         components = [
-            ScatteringComponent(_per_band(label, f"iops.scattering[{i}].b", c["b"], nbands),
+            ScatteringComponent(_per_band(label, f"{fld}.scattering[{i}].b", c["b"], nbands),
                                 _read_phase(c["phase"]))
             for i, c in enumerate(d.get("scattering", []))]
     return IOPs(absorption, components)
+
+
+def _read_profile(label: str, d: dict, bands: list, base_dir: Path) -> IOPProfile:
+    """Layers from explicit 'iops' or from an 'iop_model' each; layers from models are aligned
+    on the union of the phase functions (photic.profiles.align_components)."""
+    z_top = [float(z) for z in d["z_top"]]
+    layers, modelled = [], False
+    for i, layer in enumerate(d["layers"]):
+        if "iop_model" in layer:
+            from .iop_models import iops_from_model
+            modelled = True
+            layers.append(iops_from_model(layer["iop_model"], bands, obj=label,
+                                          prefix=f"iop_profile.layers[{i}].iop_model.",
+                                          base_dir=base_dir))
+        else:
+            layers.append(_read_iops(label, layer["iops"], len(bands),
+                                     f"iop_profile.layers[{i}].iops"))
+    if modelled:
+        from .profiles import align_components
+        layers = align_components(layers)
+    return IOPProfile(z_top, layers)
 
 
 def _read_water(label: str, d: dict, bands: list, base_dir: Path) -> WaterBody:
@@ -1241,6 +1357,8 @@ def _read_water(label: str, d: dict, bands: list, base_dir: Path) -> WaterBody:
         from .iop_models import iops_from_model
         iops = iops_from_model(d["iop_model"], bands, obj=label, prefix="iop_model.",
                                base_dir=base_dir)
+    elif "iop_profile" in d:
+        iops = _read_profile(label, d["iop_profile"], bands, base_dir)
     else:
         iops = _read_iops(label, d["iops"], nbands)
     ior = float(d.get("ior", 1.34))
@@ -1460,11 +1578,19 @@ def _phase_to_dict(p: PhaseFunction) -> dict:
     return {"type": p.type, **{k: float(v) for k, v in p.params.items()}}
 
 
+def _iops_to_dict(iops: IOPs) -> dict:
+    return {"absorption": _list(iops.absorption),
+            "scattering": [{"b": _list(c.b), "phase": _phase_to_dict(c.phase)}
+                           for c in iops.scattering]}
+
+
 def _water_to_dict(w: WaterBody) -> dict:
-    d: dict[str, Any] = {"name": w.name, "type": w.type, "ior": float(w.ior), "iops": {
-        "absorption": _list(w.iops.absorption),
-        "scattering": [{"b": _list(c.b), "phase": _phase_to_dict(c.phase)}
-                       for c in w.iops.scattering]}}
+    d: dict[str, Any] = {"name": w.name, "type": w.type, "ior": float(w.ior)}
+    if isinstance(w.iops, IOPProfile):
+        d["iop_profile"] = {"z_top": _list(w.iops.z_top),
+                            "layers": [{"iops": _iops_to_dict(x)} for x in w.iops.layers]}
+    else:
+        d["iops"] = _iops_to_dict(w.iops)
     if w.type == "mesh":
         d.update(_mesh_to_dict(w.mesh))
         return d
