@@ -286,7 +286,6 @@ class _Exporter:
 
     def add_water_body(self, obj, key, matrix, index):
         S = self.photic.scene
-        p = obj.original.photic
         owner = _obj(obj.name)
         data = self.mesh_data(obj, key)
         if data is None or len(data[1]) == 0:

@@ -10,7 +10,7 @@ import math
 
 import bpy
 import numpy as np
-from mathutils import Matrix, Vector
+from mathutils import Matrix
 
 from . import bands as bandmod
 from .nodes import find_node
@@ -83,8 +83,10 @@ def _material(m, bands):
 
 def _water_props(obj, w) -> None:
     p = obj.photic
-    if not hasattr(w.iops, "absorption"):  # an IOPProfile: layers are not Blender properties yet
-        raise ValueError(f"water '{w.name}': stratified IOPs (an iop_profile) cannot be edited "
+    if not hasattr(w.iops, "absorption"):  # IOPProfile / IOPGrid: not Blender properties yet
+        kind = "3-D IOPs (an iop_grid)" if hasattr(w.iops, "density") else \
+            "stratified IOPs (an iop_profile)"
+        raise ValueError(f"water '{w.name}': {kind} cannot be edited "
                          f"in Blender yet; render the scene file with 'photic render'")
     p.absorption_bands = _numbers(w.iops.absorption)
     p.ior = w.ior

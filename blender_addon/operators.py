@@ -1,6 +1,5 @@
 """Operators: export the Photic scene description of the current view layer; import a scene
 file as Blender objects."""
-from __future__ import annotations
 
 import bpy
 from bpy.props import StringProperty

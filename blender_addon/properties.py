@@ -5,7 +5,6 @@ Every property carries its unit, range and meaning; the export (``export.py``) c
 range cannot (per-band lists, NaN, closed water meshes) and names the property when it fails.
 Each group attaches itself to its ID type in ``register`` and removes itself in ``unregister``.
 """
-from __future__ import annotations
 
 import math
 

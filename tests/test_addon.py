@@ -521,7 +521,7 @@ def test_addon_registers_and_explains_when_the_engine_is_missing(tmp_path):
     """Registration never needs the compiled core; the reason reaches the UI."""
     import subprocess
     import sys
-    code = f"""
+    code = """
 import sys
 sys.modules['photic._core'] = None   # as if the compiled core failed to import
 import bpy
