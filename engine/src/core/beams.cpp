@@ -35,6 +35,48 @@ struct SourceTri {
 
 }  // namespace
 
+// A grid's unit coefficients with the forward cone's f, its bricks' majorants, and the water's
+// bounds (majorant, smallest beam attenuation, beam-scattering rate, MIS weights) widened to
+// every density in the grid. c(x) = c_base + rho c_unit with rho >= 0 and c_unit >= 0.
+void Scene::set_grid_coefficients(Water& w) const {
+    VoxelGrid& g = *w.grid;
+    WaterLayer& U = g.unit;
+    const WaterLayer& B = w.layers[0];
+    U.b_path = Spectrum();
+    U.comp_b_path.assign(w.components.size(), Spectrum());
+    for (size_t ci = 0; ci < w.components.size(); ++ci)
+        for (int k = 0; k < nbands; ++k) {
+            U.comp_b_path[ci].v[k] = U.comp_b[ci].v[k] * (1.0 - w.components[ci].f);
+            U.b_path.v[k] += U.comp_b_path[ci].v[k];
+        }
+    for (int k = 0; k < nbands; ++k) {
+        U.c_beam.v[k] = U.a.v[k] + U.b_path.v[k];
+        U.c_path.v[k] = U.c_beam.v[k];
+    }
+    auto majorant = [&](double r) {
+        double m = 0.0;
+        for (int k = 0; k < nbands; ++k) m = std::max(m, B.b_path.v[k] + r * U.b_path.v[k]);
+        return m;
+    };
+    g.brick_maj.resize(g.brick_max.size());
+    for (size_t b = 0; b < g.brick_max.size(); ++b) g.brick_maj[b] = majorant(g.brick_max[b]);
+    w.majorant = std::max(w.majorant, majorant(g.rho_max));
+    double cmean = 0.0;
+    for (int k = 0; k < nbands; ++k) {
+        w.c_beam_min = std::min(w.c_beam_min, B.c_beam.v[k] + g.rho_min * U.c_beam.v[k]);
+        w.a_min = std::min(w.a_min, B.a.v[k]);
+        cmean += (B.c_path.v[k] + g.rho_max * U.c_path.v[k]) / nbands;
+    }
+    if (!(w.c_path_mean > 0.0)) w.c_path_mean = cmean;  // any rate > 0 is unbiased
+    for (size_t ci = 0; ci < w.components.size(); ++ci) {
+        double b = 0.0;
+        for (int k = 0; k < nbands; ++k) b += U.comp_b[ci].v[k];
+        w.components[ci].weight += b;
+        w.mis_bsum += b;
+        w.mis_wsum += b;
+    }
+}
+
 void Scene::set_forward_cone(double half_angle) {
     cone_half_angle = std::max(0.0, half_angle);
     double xc = 1.0 - std::cos(cone_half_angle);
@@ -84,6 +126,7 @@ void Scene::set_forward_cone(double half_angle) {
             w.components[ci].weight = b;
             w.mis_wsum += b;
         }
+        if (w.grid) set_grid_coefficients(w);
     }
 }
 
@@ -466,12 +509,13 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
         if (occluded(q, beam_sun_dir)) return false;
     }
     out->d = d;
-    if (!w.stratified()) {
+    if (!w.varying()) {
         const Spectrum& c = w.layers[0].c_beam;
         for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * std::exp(-c.v[k] * l) / (a_eff * md);
     } else {  // the beam's straight path from the surface (y - d l) to y through the layers
         Spectrum tau;
-        w.add_optical_depth(&WaterLayer::c_beam, y.z - d.z * l, y.z, l, nbands, &tau);
+        if (w.grid) w.grid_optical_depth(true, y - d * l, y, l, nbands, &tau);
+        else w.add_optical_depth(&WaterLayer::c_beam, y.z - d.z * l, y.z, l, nbands, &tau);
         for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * std::exp(-tau.v[k]) / (a_eff * md);
     }
     return true;
@@ -493,12 +537,13 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max) const {
             }
             if (visible) {
                 out[n].d = fd;
-                if (!w.stratified()) {
+                if (!w.varying()) {
                     const Spectrum& c = w.layers[0].c_beam;
                     for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * std::exp(-c.v[k] * l);
                 } else {  // exp(-int c_beam dl) from the surface down through the layers
                     Spectrum tau;
-                    w.add_optical_depth(&WaterLayer::c_beam, ocean_z, x.z, l, nbands, &tau);
+                    if (w.grid) w.grid_optical_depth(true, x - fd * l, x, l, nbands, &tau);
+                    else w.add_optical_depth(&WaterLayer::c_beam, ocean_z, x.z, l, nbands, &tau);
                     for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * std::exp(-tau.v[k]);
                 }
                 ++n;

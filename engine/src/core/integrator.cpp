@@ -62,13 +62,15 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
     int n = beams_at(x, medium, beams, kMaxBeams);
     if (n == 0) return;
     // The local scattering at x and the attenuation back to o (through the layers crossed).
-    const WaterLayer& L = w.layer_at(x.z);
+    WaterLayer scratch;
+    const WaterLayer& L = w.grid ? w.local(x, &scratch, nbands) : w.layer_at(x.z);
     double att[kMaxBands];
-    if (!w.stratified()) {
+    if (!w.varying()) {
         for (int kb = 0; kb < nbands; ++kb) att[kb] = std::exp(-L.c_path.v[kb] * t);
     } else {
         Spectrum tau;
-        w.add_optical_depth(&WaterLayer::c_path, o.z, x.z, t, nbands, &tau);
+        if (w.grid) w.grid_optical_depth(true, o, x, t, nbands, &tau);
+        else w.add_optical_depth(&WaterLayer::c_path, o.z, x.z, t, nbands, &tau);
         for (int kb = 0; kb < nbands; ++kb) att[kb] = std::exp(-tau.v[kb]);
     }
     const double cone_x = 1.0 - std::cos(cone_half_angle);
@@ -136,20 +138,22 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
     // themselves); Russian roulette uses a bound meanwhile.
     double pending = 0.0;
     Spectrum tau_a;
+    WaterLayer grid_local;  // a grid's coefficients at the current collision
     auto absorbed = [&](const Water& w, int k) {  // the factor not yet carried by beta
-        return w.stratified() ? std::exp(-tau_a.v[k]) : std::exp(-w.layers[0].a.v[k] * pending);
+        return w.varying() ? std::exp(-tau_a.v[k]) : std::exp(-w.layers[0].a.v[k] * pending);
     };
     auto absorbed_bound = [&](const Water& w) {   // >= absorbed(w, k) in every band
-        if (!w.stratified()) return std::exp(-w.a_min * pending);
+        if (!w.varying()) return std::exp(-w.a_min * pending);
         double t = tau_a.v[0];
         for (int k = 1; k < nb; ++k) t = std::min(t, tau_a.v[k]);
         return std::exp(-t);
     };
-    auto travel = [&](const Water& w, const Vec3& from, const Vec3& dir, double t) {  // stratified
+    auto travel = [&](const Water& w, const Vec3& from, const Vec3& dir, double t) {  // varying
+        if (w.grid) return w.grid_optical_depth(false, from, from + dir * t, t, nb, &tau_a);
         w.add_optical_depth(&WaterLayer::a, from.z, from.z + dir.z * t, t, nb, &tau_a);
     };
     auto flush = [&](const Water& w) {
-        if (w.stratified()) {
+        if (w.varying()) {
             for (int k = 0; k < nb; ++k) beta.v[k] *= std::exp(-tau_a.v[k]);
             tau_a = Spectrum();
             return;
@@ -167,7 +171,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
         double t_hit;
         if (medium >= 0) {
             const Water& w = waters[medium];
-            const bool strat = w.stratified();
+            const bool strat = w.varying();
             const WaterLayer* L = &w.layers[0];  // the layer at the tentative collision
             bool scattered = false;
             double t_cur = 0.0;
@@ -176,8 +180,10 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             // Distance from o + d t_cur to the next tentative collision: the water's majorant,
             // or in stratified water each layer's own (regional tracking through the layers).
             int lc = 0;
+            double gmaj = 0.0;  // grid: the majorant at the tentative collision
             auto flight = [&]() {
                 double xi = -std::log(1.0 - rng.uniform());
+                if (w.grid) return w.grid_flight(o + d * t_cur, d, xi, &gmaj);
                 return strat ? w.free_flight(o.z + d.z * t_cur, d.z, xi, &lc) : xi / w.majorant;
             };
             if (w.majorant > 0.0) dt = flight();
@@ -202,9 +208,10 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
 
             while (t_cur + dt < t_hit) {
                 t_cur += dt;
-                if (strat) L = &w.layers[lc];
+                if (w.grid) L = &w.local(o + d * t_cur, &grid_local, nb);
+                else if (strat) L = &w.layers[lc];
                 else pending += dt;
-                const double maj = strat ? L->majorant : w.majorant;
+                const double maj = w.grid ? gmaj : strat ? L->majorant : w.majorant;
                 // Any probability fixed before the decision keeps the estimate unbiased;
                 // weighting by the (not yet absorbed) throughput keeps band weights tame.
                 double num = 0.0, den = 0.0;

@@ -200,6 +200,45 @@ PYBIND11_MODULE(_core, m) {
         }, py::arg("water"), py::arg("z_top"), py::arg("absorption"), py::arg("scattering"),
            "A layer of stratified water below the previous one: its IOPs for z <= z_top (m), one "
            "scattering spectrum per component (the components' phase functions are the water's).")
+        .def("set_water_grid", [](Scene& s, int water, std::array<double, 3> lo, std::array<double, 3> hi,
+                                  py::array_t<float, py::array::c_style | py::array::forcecast> rho,
+                                  DArray a, std::vector<DArray> b) {
+            if (water < 0 || water >= int(s.waters.size())) throw std::invalid_argument("bad water index");
+            Water& w = s.waters[water];
+            if (w.layers.size() != 1) throw std::invalid_argument("a grid needs water with one layer of base IOPs");
+            if (rho.ndim() != 3) throw std::invalid_argument("the density must be an (nx, ny, nz) array");
+            if (b.size() != w.components.size())
+                throw std::invalid_argument("the grid's unit IOPs need one scattering spectrum per component");
+            auto g = std::make_shared<VoxelGrid>();
+            for (int a = 0; a < 3; ++a) {
+                if (!(hi[a] > lo[a]) || !std::isfinite(lo[a]) || !std::isfinite(hi[a]))
+                    throw std::invalid_argument("the grid's box must have finite corners with hi > lo");
+                if (rho.shape(a) < 1) throw std::invalid_argument("the grid needs at least one voxel per axis");
+                g->lo[a] = lo[a];
+                g->hi[a] = hi[a];
+                g->n[a] = int(rho.shape(a));
+            }
+            g->rho.assign(rho.data(), rho.data() + rho.size());
+            for (float r : g->rho)
+                if (!(r >= 0.f) || !std::isfinite(r)) throw std::invalid_argument("densities must be finite and >= 0");
+            g->unit.a = to_spectrum(a, s.nbands, "absorption");
+            for (auto& bc : b) {
+                g->unit.comp_b.push_back(to_spectrum(bc, s.nbands, "scattering"));
+                for (int k = 0; k < s.nbands; ++k) g->unit.b.v[k] += g->unit.comp_b.back().v[k];
+            }
+            for (int k = 0; k < s.nbands; ++k) {
+                if (g->unit.a.v[k] < 0.0 || g->unit.b.v[k] < 0.0)
+                    throw std::invalid_argument("the grid's unit IOPs must be >= 0");
+            }
+            {
+                py::gil_scoped_release release;
+                g->finish();
+            }
+            w.grid = g;
+        }, py::arg("water"), py::arg("lo"), py::arg("hi"), py::arg("density"), py::arg("absorption"),
+           py::arg("scattering"),
+           "3-D IOPs of a water body over the box [lo, hi]: per voxel (density[i, j, k], x fastest "
+           "varying in i) its IOPs are the base plus density times these unit IOPs.")
         .def("add_mesh", [](Scene& s, FArray v, UArray t, int kind, int index) {
             if (v.ndim() != 2 || v.shape(1) != 3 || t.ndim() != 2 || t.shape(1) != 3)
                 throw std::invalid_argument("vertices and triangles must be (N, 3) arrays");

@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
+#include <memory>
 #include <vector>
 #include "phase.h"
 #include "rng.h"
@@ -50,6 +52,124 @@ struct WaterLayer {
     double c_path_mean = 0.0;
 };
 
+// A 3-D grid of piecewise-constant voxels over an axis-aligned box: one density rho >= 0 per
+// voxel (float32) scaling a "unit" set of IOPs added to the water's base IOPs,
+// c(x) = c_base + rho(x) c_unit (absorption and each component's b alike); outside the box
+// rho = 0. Bricks of B^3 voxels keep the largest rho for regional delta tracking.
+struct VoxelGrid {
+    static constexpr int B = 8;
+    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, cell[3] = {1, 1, 1}, bcell[3] = {1, 1, 1};
+    int n[3] = {1, 1, 1}, nb[3] = {1, 1, 1};
+    std::vector<float> rho;        // voxel (i, j, k) at (i * n[1] + j) * n[2] + k
+    std::vector<float> brick_max;  // largest rho per brick, same layout over nb
+    std::vector<double> brick_maj; // majorant per brick (Scene::set_forward_cone)
+    float rho_min = 0.f, rho_max = 0.f;
+    WaterLayer unit;               // IOPs added per unit density (same components as the base)
+
+    void finish() {
+        for (int a = 0; a < 3; ++a) {
+            cell[a] = (hi[a] - lo[a]) / n[a];
+            nb[a] = (n[a] + B - 1) / B;
+            bcell[a] = cell[a] * B;
+        }
+        brick_max.assign(size_t(nb[0]) * nb[1] * nb[2], 0.f);
+        rho_min = rho.empty() ? 0.f : rho[0];
+        rho_max = rho_min;
+        for (int i = 0; i < n[0]; ++i)
+            for (int j = 0; j < n[1]; ++j)
+                for (int k = 0; k < n[2]; ++k) {
+                    float r = rho[(size_t(i) * n[1] + j) * n[2] + k];
+                    float& m = brick_max[(size_t(i / B) * nb[1] + j / B) * nb[2] + k / B];
+                    m = std::max(m, r);
+                    rho_min = std::min(rho_min, r);
+                    rho_max = std::max(rho_max, r);
+                }
+    }
+    // The density at p (0 outside the box).
+    double at(const Vec3& p) const {
+        const double q[3] = {p.x, p.y, p.z};
+        int idx[3];
+        for (int a = 0; a < 3; ++a) {
+            if (!(q[a] >= lo[a] && q[a] <= hi[a])) return 0.0;
+            idx[a] = std::min(n[a] - 1, std::max(0, int((q[a] - lo[a]) / cell[a])));
+        }
+        return rho[(size_t(idx[0]) * n[1] + idx[1]) * n[2] + idx[2]];
+    }
+    // The part [t0, t1] of o + d t, t in [0, tmax], inside the box; false if none.
+    bool clip(const Vec3& o, const Vec3& d, double tmax, double* t0, double* t1) const {
+        const double oo[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
+        double a0 = 0.0, a1 = tmax;
+        for (int a = 0; a < 3; ++a) {
+            if (dd[a] == 0.0) {
+                if (oo[a] < lo[a] || oo[a] > hi[a]) return false;
+                continue;
+            }
+            double ta = (lo[a] - oo[a]) / dd[a], tb = (hi[a] - oo[a]) / dd[a];
+            if (ta > tb) std::swap(ta, tb);
+            a0 = std::max(a0, ta);
+            a1 = std::min(a1, tb);
+        }
+        *t0 = a0;
+        *t1 = a1;
+        return a1 > a0;
+    }
+    // 3-D DDA over cells of size cs (m cells per axis) along o + d t for t in [t0, t1]:
+    // f(cell index, t_enter, t_leave) for each cell crossed, in order; f returns true to stop.
+    template <class F>
+    void walk(const Vec3& o, const Vec3& d, double t0, double t1, const double* cs, const int* m,
+              F&& f) const {
+        const double oo[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
+        const double tm = 0.5 * (t0 + std::min(t1, t0 + 1e-9 * (1.0 + t1 - t0)));
+        int idx[3], step[3];
+        double tnext[3], tdelta[3];
+        for (int a = 0; a < 3; ++a) {
+            double q = oo[a] + dd[a] * tm;
+            idx[a] = std::min(m[a] - 1, std::max(0, int(std::floor((q - lo[a]) / cs[a]))));
+            if (dd[a] > 0.0) {
+                step[a] = 1;
+                tnext[a] = (lo[a] + (idx[a] + 1) * cs[a] - oo[a]) / dd[a];
+                tdelta[a] = cs[a] / dd[a];
+            } else if (dd[a] < 0.0) {
+                step[a] = -1;
+                tnext[a] = (lo[a] + idx[a] * cs[a] - oo[a]) / dd[a];
+                tdelta[a] = -cs[a] / dd[a];
+            } else {
+                step[a] = 0;
+                tnext[a] = kInf;
+                tdelta[a] = kInf;
+            }
+        }
+        double t = t0;
+        for (;;) {
+            int a = tnext[0] < tnext[1] ? (tnext[0] < tnext[2] ? 0 : 2) : (tnext[1] < tnext[2] ? 1 : 2);
+            double tb = std::min(std::max(tnext[a], t), t1);
+            if (f((size_t(idx[0]) * m[1] + idx[1]) * m[2] + idx[2], t, tb)) return;
+            if (tb >= t1) return;
+            t = tb;
+            idx[a] += step[a];
+            if (idx[a] < 0 || idx[a] >= m[a]) return;
+            tnext[a] += tdelta[a];
+        }
+    }
+    // int rho dl along the segment from p0 to p1 (length len).
+    double integral(const Vec3& p0, const Vec3& p1, double len) const {
+        if (!(len > 0.0)) return 0.0;
+        Vec3 d = (p1 - p0) * (1.0 / len);
+        double t0, t1, sum = 0.0;
+        if (!clip(p0, d, len, &t0, &t1)) return 0.0;
+        // Bricks first: empty ones (clear water in a sparse plume) are skipped whole.
+        walk(p0, d, t0, t1, bcell, nb, [&](size_t b, double ba, double bb) {
+            if (brick_max[b] > 0.f && bb > ba)
+                walk(p0, d, ba, bb, cell, n, [&](size_t v, double ta, double tb) {
+                    sum += double(rho[v]) * (tb - ta);
+                    return false;
+                });
+            return false;
+        });
+        return sum;
+    }
+};
+
 struct Water {
     double ior = 1.34;
     std::vector<ScatterComponent> components;
@@ -65,6 +185,71 @@ struct Water {
     double mis_wsum = 0.0;               // sum of the components' weights (its pdf)
 
     bool stratified() const { return layers.size() > 1; }
+    std::shared_ptr<VoxelGrid> grid;     // 3-D IOPs over a box (base IOPs: layers[0]); or null
+    bool varying() const { return layers.size() > 1 || grid; }
+    // The coefficients at p: the layer's, or in a grid the base plus rho(p) times the unit
+    // (written into *scratch). Only the fields the integrators read at a point are filled.
+    const WaterLayer& local(const Vec3& p, WaterLayer* scratch, int nb) const {
+        if (!grid) return layer_at(p.z);
+        double r = grid->at(p);
+        if (r == 0.0) return layers[0];
+        const WaterLayer& B = layers[0];
+        const WaterLayer& U = grid->unit;
+        const size_t nc = B.comp_b.size();
+        scratch->comp_b.resize(nc);
+        scratch->comp_b_path.resize(nc);
+        scratch->b = Spectrum();
+        scratch->b_path = Spectrum();
+        for (int k = 0; k < nb; ++k) scratch->a.v[k] = B.a.v[k] + r * U.a.v[k];
+        for (size_t c = 0; c < nc; ++c)
+            for (int k = 0; k < nb; ++k) {
+                scratch->comp_b[c].v[k] = B.comp_b[c].v[k] + r * U.comp_b[c].v[k];
+                scratch->comp_b_path[c].v[k] = B.comp_b_path[c].v[k] + r * U.comp_b_path[c].v[k];
+                scratch->b.v[k] += scratch->comp_b[c].v[k];
+                scratch->b_path.v[k] += scratch->comp_b_path[c].v[k];
+            }
+        return *scratch;
+    }
+    // Grid: regional delta tracking over the bricks (base majorant outside the box); the
+    // distance at which the majorants' optical depth reaches xi and the majorant there.
+    double grid_flight(const Vec3& o, const Vec3& d, double xi, double* maj) const {
+        const double m0 = layers[0].majorant;
+        double t0, t1;
+        if (!grid->clip(o, d, kInf, &t0, &t1)) {
+            *maj = m0;
+            return m0 > 0.0 ? xi / m0 : kInf;
+        }
+        if (m0 > 0.0 && xi < m0 * t0) {
+            *maj = m0;
+            return xi / m0;
+        }
+        xi -= m0 * t0;
+        double res = kInf;
+        grid->walk(o, d, t0, t1, grid->bcell, grid->nb, [&](size_t b, double ta, double tb) {
+            double m = grid->brick_maj[b];
+            if (m > 0.0 && xi < m * (tb - ta)) {
+                res = ta + xi / m;
+                *maj = m;
+                return true;
+            }
+            xi -= m * (tb - ta);
+            return false;
+        });
+        if (res < kInf) return res;
+        *maj = m0;
+        return m0 > 0.0 ? t1 + std::max(0.0, xi) / m0 : kInf;
+    }
+    // Grid: adds the optical depth of the absorption (attenuation = false) or of a + b_path
+    // (c_path = c_beam) along the segment p0 -> p1 of length len, per band.
+    void grid_optical_depth(bool attenuation, const Vec3& p0, const Vec3& p1, double len, int nb,
+                            Spectrum* tau) const {
+        const WaterLayer& B = layers[0];
+        const WaterLayer& U = grid->unit;
+        double r = grid->integral(p0, p1, len);
+        const Spectrum& cb = attenuation ? B.c_path : B.a;
+        const Spectrum& cu = attenuation ? U.c_path : U.a;
+        for (int k = 0; k < nb; ++k) tau->v[k] += cb.v[k] * len + cu.v[k] * r;
+    }
     const WaterLayer& layer_at(double z) const { return layers[layer_index(z)]; }
     int layer_index(double z) const {
         int lo = 1, hi = int(layers.size());  // the first layer i >= 1 with z_top < z, minus one
@@ -264,6 +449,7 @@ public:
     Vec3 beam_sun_dir{0, 0, 1};
     double beam_mu_w = 1.0;           // cosine of the refracted sun's zenith angle in water
 
+    void set_grid_coefficients(Water& w) const;  // part of set_forward_cone
     void set_forward_cone(double half_angle);  // recomputes the waters' path/beam coefficients
     // Beams for one sun direction. With a rough ocean surface, facet_u (two uniforms) picks
     // one sub-pixel facet orientation (relative to each local normal) for this build: over

@@ -10,7 +10,7 @@ import numpy as np
 
 from . import _core
 from .phase import make_core_phase
-from .scene import IOPProfile, Scene
+from .scene import IOPGrid, IOPProfile, Scene
 
 QUANTITY_CODES = {"Ed": 0, "Eu": 1, "Eo": 2, "Eod": 3, "Eou": 4,
                   "radiance": 5, "radiance_distribution": 6}
@@ -62,7 +62,9 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
     for w in scene.water:
         # Stratified water: the first layer makes the water body, the others go below it
         # (every layer has the same components: phase functions, in the same order).
-        layers = w.iops.layers if isinstance(w.iops, IOPProfile) else [w.iops]
+        grid = w.iops if isinstance(w.iops, IOPGrid) else None
+        layers = (w.iops.layers if isinstance(w.iops, IOPProfile)
+                  else [grid.iops] if grid is not None else [w.iops])
         comps = []
         for comp in layers[0].scattering:
             pid = core.add_phase(make_core_phase(comp.phase.type, comp.phase.params))
@@ -73,6 +75,12 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
         for z_top, layer in zip(np.asarray(w.iops.z_top)[1:] if len(layers) > 1 else [], layers[1:]):
             b = [sel(c.b) for c in layer.scattering] or [np.zeros(nb)]
             core.add_water_layer(wi, float(z_top), sel(layer.absorption), b)
+        if grid is not None:  # 3-D IOPs: base + density x unit over the box
+            origin = np.asarray(grid.origin, dtype=np.float64)
+            b = [sel(c.b) for c in grid.unit.scattering] or [np.zeros(nb)]
+            core.set_water_grid(wi, origin.tolist(), (origin + grid.size).tolist(),
+                                np.ascontiguousarray(grid.density, dtype=np.float32),
+                                sel(grid.unit.absorption), b)
         water_index[w.name] = wi
 
     for m in scene.meshes:

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .compile import band_groups, compile_scene
-from .scene import IOPProfile, Scene, SceneError
+from .scene import IOPGrid, IOPProfile, Scene, SceneError
 
 RADIOMETER_PASS = 1 << 16  # samples per radiometer pass (a multiple of the core's chunk)
 UNITS_RADIANCE = "W m^-2 sr^-1 (per unit of the band's source spectrum, e.g. nm^-1)"
@@ -94,6 +94,14 @@ def optical_depth_scale(scene: Scene) -> float:
             z = np.asarray(w.mesh.vertices)[:, 2]
             depth = float(z.max() - z.min())
             top = float(z.max())
+        if isinstance(w.iops, IOPGrid):  # 3-D: bounded by the densest voxel everywhere
+            g = w.iops
+            rmax = float(np.max(g.density)) if np.size(g.density) else 0.0
+            c = np.asarray(g.iops.absorption) + np.asarray(g.iops.total_scattering) + rmax * (
+                np.asarray(g.unit.absorption) + np.asarray(g.unit.total_scattering))
+            c = float(np.max(c))
+            tau = max(tau, c * depth if c > 0 else 0.0)
+            continue
         if isinstance(w.iops, IOPProfile):  # stratified: the vertical column's optical depth
             tau = max(tau, _profile_optical_depth(w.iops, top, top - depth))
             continue

@@ -30,7 +30,7 @@ import numpy as np
 
 __all__ = [
     "FORMAT_VERSION", "PHASE_FUNCTION_PARAMS", "QUANTITIES", "SceneError", "Band", "Material",
-    "PhaseFunction", "ScatteringComponent", "IOPs", "IOPProfile", "TriangleMesh", "MeshObject",
+    "PhaseFunction", "ScatteringComponent", "IOPs", "IOPProfile", "IOPGrid", "TriangleMesh", "MeshObject",
     "OceanSurface", "SurfaceRoughness", "WaterBody", "Sun", "Sky", "Camera", "Radiometer", "RadiometerArray",
     "Settings", "Scene", "check_closed_mesh", "load_scene", "save_scene", "scene_schema",
 ]
@@ -347,6 +347,53 @@ class IOPProfile(_ArrayEq):
 
 
 @dataclass(eq=False)
+class IOPGrid(_ArrayEq):
+    """3-D IOPs: a regular grid of piecewise-constant voxels over the box ``origin`` to
+    ``origin + size`` (m, world axes). Each voxel holds one density ``rho >= 0`` (float32;
+    ``density[i, j, k]``, ``i`` along x, ``j`` along y, ``k`` along z), and the IOPs there are
+    ``iops + rho * unit``: ``a = a_base + rho a_unit`` and, per scattering component,
+    ``b_c = b_base,c + rho b_unit,c``. Outside the box ``rho = 0`` (the base ``iops``). ``unit``
+    has the same components (phase functions, in the same order) as ``iops``, with ``a`` and
+    ``b >= 0`` (b = 0 where a component is absent from the plume). Memory: 4 bytes per voxel
+    (256^3: 64 MiB). ``file``: the ``.npz`` the density was read from (key ``density``), kept so
+    that a saved scene refers to it instead of writing the voxels inline.
+
+    Examples
+    --------
+    >>> water = PhaseFunction("pure_water")
+    >>> base = IOPs([0.05], [ScatteringComponent([0.002], water)])
+    >>> unit = IOPs([0.1], [ScatteringComponent([0.5], water)])
+    >>> IOPGrid(base, unit, [0, 0, -10], [10, 10, 10], np.zeros((4, 4, 4)))  # doctest: +ELLIPSIS
+    IOPGrid(...)
+    """
+
+    iops: IOPs
+    unit: IOPs
+    origin: np.ndarray
+    size: np.ndarray
+    density: np.ndarray
+    file: str | None = None
+
+    def __post_init__(self):
+        self.origin = _as_floats(self.origin)
+        self.size = _as_floats(self.size)
+        if not isinstance(self.density, np.ndarray):
+            try:
+                self.density = np.array(self.density, dtype=np.float32)
+            except (TypeError, ValueError):
+                pass
+
+    def density_at(self, p) -> float:
+        """The density at point ``p`` (m; 0 outside the box)."""
+        q = (np.asarray(p, dtype=np.float64) - self.origin) / self.size
+        if np.any(q < 0) or np.any(q > 1):
+            return 0.0
+        n = np.asarray(self.density.shape)
+        idx = np.minimum((q * n).astype(int), n - 1)
+        return float(self.density[tuple(idx)])
+
+
+@dataclass(eq=False)
 class TriangleMesh(_ArrayEq):
     """A triangle mesh: ``vertices`` float64 (N, 3) in m, ``triangles`` int64 (M, 3).
 
@@ -464,11 +511,12 @@ class OceanSurface(_ArrayEq):
 class WaterBody(_ArrayEq):
     """A water body: type ``"mesh"`` (closed ``mesh``) or ``"ocean"`` (``surface``, optional
     flat bottom at ``surface.z - bottom_depth`` made of ``bottom_material``). ``iops`` is an
-    ``IOPs`` (homogeneous water) or an ``IOPProfile`` (stratified water)."""
+    ``IOPs`` (homogeneous water), an ``IOPProfile`` (stratified water) or an ``IOPGrid`` (3-D
+    IOPs over a box)."""
 
     name: str
     type: str
-    iops: IOPs | IOPProfile
+    iops: IOPs | IOPProfile | IOPGrid
     ior: float = 1.34
     mesh: TriangleMesh | None = None
     surface: OceanSurface | None = None
@@ -910,6 +958,48 @@ def _validate_profile(label: str, profile: IOPProfile, nbands: int) -> None:
                                  f"{_phase_text(ref.phase)}: layers may differ only in a and b")
 
 
+def _validate_grid(label: str, grid: IOPGrid, nbands: int) -> None:
+    """Base and unit IOPs with the same components, unit coefficients >= 0, a finite box of
+    positive size, and a 3-D array of finite densities >= 0."""
+    _validate_iops(label, grid.iops, nbands, "iop_grid.base.iops")
+    _validate_iops(label, grid.unit, nbands, "iop_grid.unit.iops")
+    fld = "iop_grid.unit.iops.scattering"
+    if len(grid.unit.scattering) != len(grid.iops.scattering):
+        raise SceneError(label, fld, f"has {len(grid.unit.scattering)} component(s) but "
+                                     f"iop_grid.base.iops has {len(grid.iops.scattering)}: the unit "
+                                     f"IOPs need the same components (phase functions), with "
+                                     f"b = 0 where absent")
+    for j, (mine, ref) in enumerate(zip(grid.unit.scattering, grid.iops.scattering)):
+        if mine.phase != ref.phase:
+            raise SceneError(label, f"{fld}[{j}].phase",
+                             f"is {_phase_text(mine.phase)} but iop_grid.base.iops component {j} is "
+                             f"{_phase_text(ref.phase)}")
+        if np.any(np.asarray(mine.b) < 0):
+            raise SceneError(label, f"{fld}[{j}].b", f"must be >= 0 in every band, got "
+                                                     f"{_show(mine.b)}")
+    if np.any(np.asarray(grid.unit.absorption) < 0):
+        raise SceneError(label, "iop_grid.unit.iops.absorption", f"must be >= 0 in every band, got "
+                                                            f"{_show(grid.unit.absorption)}")
+    for fld, v in (("origin", grid.origin), ("size", grid.size)):
+        if (not isinstance(v, np.ndarray) or v.shape != (3,) or v.dtype.kind not in "fiu"
+                or not np.all(np.isfinite(v))):
+            raise SceneError(label, f"iop_grid.{fld}", f"must be 3 finite numbers [x, y, z] "
+                                                      f"(m), got {_show(v)}")
+    if not np.all(grid.size > 0):
+        raise SceneError(label, "iop_grid.size", f"must be > 0 along every axis, got "
+                                                 f"{_show(grid.size)}")
+    d = grid.density
+    if not isinstance(d, np.ndarray) or d.ndim != 3 or d.dtype.kind not in "fiu" or 0 in d.shape:
+        shape = f"shape {d.shape}" if isinstance(d, np.ndarray) else _show(d)
+        raise SceneError(label, "iop_grid.density", f"must be a non-empty 3-D array of numbers "
+                                                    f"(nx, ny, nz), got {shape}")
+    bad = np.argwhere(~(np.isfinite(d) & (d >= 0)))
+    if bad.size:
+        i = tuple(int(x) for x in bad[0])
+        raise SceneError(label, f"iop_grid.density{list(i)}", f"must be finite and >= 0, got "
+                                                             f"{_num(float(d[i]))}")
+
+
 def _phase_text(p: PhaseFunction) -> str:
     params = ", ".join(f"{k}={_num(v)}" for k, v in p.params.items())
     return f"{p.type!r}" + (f" ({params})" if params else "")
@@ -920,6 +1010,8 @@ def _validate_water(label: str, w: WaterBody, nbands: int, materials: dict) -> N
     _check_real(label, "ior", w.ior, 1.0)
     if isinstance(w.iops, IOPProfile):
         _validate_profile(label, w.iops, nbands)
+    elif isinstance(w.iops, IOPGrid):
+        _validate_grid(label, w.iops, nbands)
     else:
         _validate_iops(label, w.iops, nbands)
     if w.type == "mesh":
@@ -1351,6 +1443,43 @@ def _read_profile(label: str, d: dict, bands: list, base_dir: Path) -> IOPProfil
     return IOPProfile(z_top, layers)
 
 
+def _read_grid(label: str, d: dict, bands: list, base_dir: Path) -> IOPGrid:
+    """Base and unit IOPs (explicit or from a model), the box, and the density: inline nested
+    lists or the key 'density' of a numpy .npz 'file' (relative to the scene file)."""
+    def iops(key):
+        if "iop_model" in d[key]:
+            from .iop_models import iops_from_model
+            return iops_from_model(d[key]["iop_model"], bands, obj=label,
+                                   prefix=f"iop_grid.{key}.iop_model.", base_dir=base_dir)
+        return _read_iops(label, d[key]["iops"], len(bands), f"iop_grid.{key}.iops")
+    base, unit = iops("base"), iops("unit")
+    if "iop_model" in d["base"] or "iop_model" in d["unit"]:  # one set of components for both
+        from .profiles import align_components
+        base, unit = align_components([base, unit])
+    if ("file" in d) == ("density" in d):
+        raise SceneError(label, "iop_grid", "give either 'density' (nested lists) or 'file' "
+                                            "(a .npz holding 'density')")
+    file = None
+    if "file" in d:
+        path = base_dir / d["file"]
+        try:
+            with np.load(path) as z:
+                if "density" not in z:
+                    raise SceneError(label, "iop_grid.file", f"{path} has no array 'density' "
+                                                             f"(has: {', '.join(z.files) or 'none'})")
+                density = np.asarray(z["density"])
+        except (OSError, ValueError) as e:
+            raise SceneError(label, "iop_grid.file", f"cannot read {path}: {e}") from None
+        file = str(path.resolve())
+    else:
+        try:
+            density = np.array(d["density"], dtype=np.float32)
+        except (TypeError, ValueError):
+            raise SceneError(label, "iop_grid.density", "must be nested lists of numbers "
+                                                        "[x][y][z] with equal lengths") from None
+    return IOPGrid(base, unit, d["origin"], d["size"], density, file)
+
+
 def _read_water(label: str, d: dict, bands: list, base_dir: Path) -> WaterBody:
     nbands = len(bands)
     if "iop_model" in d:
@@ -1359,6 +1488,8 @@ def _read_water(label: str, d: dict, bands: list, base_dir: Path) -> WaterBody:
                                base_dir=base_dir)
     elif "iop_profile" in d:
         iops = _read_profile(label, d["iop_profile"], bands, base_dir)
+    elif "iop_grid" in d:
+        iops = _read_grid(label, d["iop_grid"], bands, base_dir)
     else:
         iops = _read_iops(label, d["iops"], nbands)
     ior = float(d.get("ior", 1.34))
@@ -1589,6 +1720,15 @@ def _water_to_dict(w: WaterBody) -> dict:
     if isinstance(w.iops, IOPProfile):
         d["iop_profile"] = {"z_top": _list(w.iops.z_top),
                             "layers": [{"iops": _iops_to_dict(x)} for x in w.iops.layers]}
+    elif isinstance(w.iops, IOPGrid):
+        g = w.iops
+        d["iop_grid"] = {"base": {"iops": _iops_to_dict(g.iops)},
+                         "unit": {"iops": _iops_to_dict(g.unit)},
+                         "origin": _list(g.origin), "size": _list(g.size)}
+        if g.file is not None:
+            d["iop_grid"]["file"] = g.file
+        else:
+            d["iop_grid"]["density"] = np.asarray(g.density, dtype=np.float64).tolist()
     else:
         d["iops"] = _iops_to_dict(w.iops)
     if w.type == "mesh":
