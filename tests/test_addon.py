@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-bpy = pytest.importorskip("bpy")
+import bpy  # noqa: E402  (a requirement: the add-on's tests must not be skipped silently)
 
 from photic.cli import load_addon  # noqa: E402
 from photic.render import Renderer  # noqa: E402

@@ -86,8 +86,7 @@ def extension_zip(tmp_path_factory) -> Path:
 
 def test_extension_installs_and_renders(extension_zip, tmp_path):
     spec = importlib.util.find_spec("bpy")
-    if spec is None:
-        pytest.skip("bpy (Blender as a Python module) is not installed")
+    assert spec is not None, "bpy (Blender as a Python module) is not installed: run scripts/install.sh"
     site_packages = Path(spec.submodule_search_locations[0]).parent
     blender_site = tmp_path / "blender_site"
     blender_site.mkdir()

@@ -242,34 +242,31 @@ def _ratio(num: Reading, den: Reading):
     return value, err
 
 
+def _ratio_quantity(quantity: str, num, den, num_q: str, den_q: str, table, at_num: bool) -> Derived:
+    """num / den with a first-order error, both radiometers checked for their quantity; the
+    position and medium reported are the numerator's (``at_num``) or the denominator's."""
+    n, d = _resolve(table, num), _resolve(table, den)
+    _check_quantity(n, {num_q}, f"{quantity} numerator")
+    _check_quantity(d, {den_q}, f"{quantity} denominator")
+    value, err = _ratio(n, d)
+    at = n if at_num else d
+    return Derived(f"{quantity}({n.name}, {d.name})", quantity, value, err, UNITS_RATIO,
+                   (n.name, d.name), at.medium, at.position.copy())
+
+
 def irradiance_reflectance(eu, ed, table: RadiometerTable | None = None) -> Derived:
     """R = Eu / Ed; stderr^2 = (s_u / Ed)^2 + (R s_d / Ed)^2."""
-    u, d = _resolve(table, eu), _resolve(table, ed)
-    _check_quantity(u, {"Eu"}, "R numerator")
-    _check_quantity(d, {"Ed"}, "R denominator")
-    value, err = _ratio(u, d)
-    return Derived(f"R({u.name}, {d.name})", "R", value, err, UNITS_RATIO, (u.name, d.name), d.medium,
-                   d.position.copy())
+    return _ratio_quantity("R", eu, ed, "Eu", "Ed", table, at_num=False)
 
 
 def mean_cosine_down(ed, eod, table: RadiometerTable | None = None) -> Derived:
     """mu_d = Ed / Eod (first-order error as for a ratio)."""
-    d, o = _resolve(table, ed), _resolve(table, eod)
-    _check_quantity(d, {"Ed"}, "mu_d numerator")
-    _check_quantity(o, {"Eod"}, "mu_d denominator")
-    value, err = _ratio(d, o)
-    return Derived(f"mu_d({d.name}, {o.name})", "mu_d", value, err, UNITS_RATIO, (d.name, o.name), d.medium,
-                   d.position.copy())
+    return _ratio_quantity("mu_d", ed, eod, "Ed", "Eod", table, at_num=True)
 
 
 def mean_cosine_up(eu, eou, table: RadiometerTable | None = None) -> Derived:
     """mu_u = Eu / Eou (positive, as Ed / Eod)."""
-    u, o = _resolve(table, eu), _resolve(table, eou)
-    _check_quantity(u, {"Eu"}, "mu_u numerator")
-    _check_quantity(o, {"Eou"}, "mu_u denominator")
-    value, err = _ratio(u, o)
-    return Derived(f"mu_u({u.name}, {o.name})", "mu_u", value, err, UNITS_RATIO, (u.name, o.name), u.medium,
-                   u.position.copy())
+    return _ratio_quantity("mu_u", eu, eou, "Eu", "Eou", table, at_num=True)
 
 
 def mean_cosine(ed, eu, eo=None, eod=None, eou=None, table: RadiometerTable | None = None) -> Derived:
