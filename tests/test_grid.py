@@ -141,19 +141,36 @@ def test_grid_from_npz_round_trips(tmp_path):
 # b = 0: Beer-Lambert along a slanted ray through a 3-D field (the DDA)
 # --------------------------------------------------------------------------------------
 
-def test_sun_through_absorbing_3d_field():
-    """A small sun (0.05 deg) at 35 deg, b = 0, random absorbing densities in 4 x 5 x 6
-    voxels: Ed at three points equals the disk quadrature with the optical depth integrated
-    in numpy along the refracted ray (1e4 midpoints through the voxels, density_at), to 1e-3
-    (a deterministic estimate: no scattering, one refracted path per sample)."""
+def _sparse_field():
+    """37 x 29 x 45 voxels (several bricks of 8^3, partial ones at the far faces): random
+    densities in two blobs, zero elsewhere, so that rays cross empty bricks, non-empty ones
+    and the clear water around the non-empty voxels' box."""
+    rng = np.random.default_rng(11)
+    rho = rng.random((37, 29, 45)) * 2.0
+    i, j, k = np.meshgrid(*(np.arange(n) for n in rho.shape), indexing="ij")
+    blob1 = (i - 10) ** 2 + (j - 8) ** 2 + ((k - 30) / 1.5) ** 2 < 60
+    blob2 = (abs(i - 27) < 6) & (abs(j - 20) < 5) & (abs(k - 12) < 10)
+    rho[~(blob1 | blob2)] = 0.0
+    return rho
+
+
+@pytest.mark.parametrize("field", ["dense 4x5x6", "sparse 37x29x45"])
+def test_sun_through_absorbing_3d_field(field):
+    """A small sun (0.05 deg) at 35 deg, b = 0, random absorbing densities (in 4 x 5 x 6
+    voxels, or sparse in several bricks): Ed at three points equals the disk quadrature with
+    the optical depth integrated in numpy along the refracted ray (1e4 midpoints through the
+    voxels, density_at), to 1e-3 (a deterministic estimate: no scattering, one refracted path
+    per sample)."""
     import math
     from test_stratified import refracted_sun
-    rho = np.random.default_rng(7).random((4, 5, 6)) * 2.0
+    rho = np.random.default_rng(7).random((4, 5, 6)) * 2.0 if field.startswith("dense") else _sparse_field()
     box = ([-1.5, -2.0, -4.0], [3.0, 4.0, 4.2])   # the top above the surface
     d = sea([rad("Ed", 1.0)], iops=mixture(0.05, 0.0, 0.0)).to_dict()
     del d["water"][0]["iops"]
     d["water"][0]["iop_grid"] = grid(mixture(0.05, 0.0, 0.0), mixture(0.3, 0.0, 0.0), rho, box)
     points = [(0.3, -0.2, -1.0), (-0.5, 0.7, -2.5), (0.9, 0.1, -3.7)]
+    if field.startswith("sparse"):  # rays through either blob, and one through neither
+        points = [(-1.0, -1.1, -1.5), (0.5, 1.2, -3.0), (-1.2, 0.0, -3.9)]
     d["radiometers"] = [{"name": f"Ed_{i}", "quantity": "Ed", "position": list(p)}
                         for i, p in enumerate(points)]
     d["sun"] = {"zenith_deg": 35.0, "azimuth_deg": 20.0, "irradiance": [1.0],
@@ -173,6 +190,8 @@ def test_sun_through_absorbing_3d_field():
         # the vertical-depth form of refracted_sun: tau_vertical = tau_along_ray * mu_w
         tau = (0.05 + 0.3 * dens) * length * mu_w
         ref = refracted_sun(35.0, tau, diameter_deg=0.05)
+        if field.startswith("sparse") and i < 2:
+            assert dens > 0.2  # the ray does cross a blob
         r = res.radiometer(f"Ed_{i}")
         assert abs(r.mean[0, 0] / ref - 1) < 1e-3  # deterministic: the reference's quadrature
 

@@ -471,7 +471,8 @@ void Scene::build_grid() {
     for (auto& l : lists) grid_.items.insert(grid_.items.end(), l.begin(), l.end());
 }
 
-bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, BeamSample* out) const {
+bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, BeamSample* out,
+                       bool exact) const {
     double h = dot(P.m, y);
     double t[3];
     Vec3 p[3];
@@ -509,7 +510,7 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
         if (occluded(q, beam_sun_dir)) return false;
     }
     out->d = d;
-    if (!w.varying()) {
+    if (!w.varying() || !exact) {
         const Spectrum& c = w.layers[0].c_beam;
         for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * std::exp(-c.v[k] * l) / (a_eff * md);
     } else {  // the beam's straight path from the surface (y - d l) to y through the layers
@@ -521,7 +522,7 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
     return true;
 }
 
-int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max) const {
+int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool exact) const {
     int n = 0;
     if (medium < 0 || max <= 0) return 0;
     if (flat_beam && medium == ocean_water && x.z < ocean_z && (!has_bottom || x.z > bottom_z)) {
@@ -537,7 +538,7 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max) const {
             }
             if (visible) {
                 out[n].d = fd;
-                if (!w.varying()) {
+                if (!w.varying() || !exact) {
                     const Spectrum& c = w.layers[0].c_beam;
                     for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * std::exp(-c.v[k] * l);
                 } else {  // exp(-int c_beam dl) from the surface down through the layers
@@ -571,7 +572,7 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max) const {
                 if (P.water != medium) continue;
                 if ((i != 0 || j != 0) && !(periodic && P.water == ocean_water)) continue;
                 if (n >= max) return n;
-                if (prism_eval(P, y, x, &out[n])) ++n;
+                if (prism_eval(P, y, x, &out[n], exact)) ++n;
             }
         }
     return n;
