@@ -117,11 +117,15 @@ def cmd_render(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    if args.large:
+        from .bench_large import run_large_cli
+        return run_large_cli(args)
     if args.error:
-        from .bench import run_error_bench
+        from .bench import DEFAULT_ERROR_PLOT, run_error_bench
         say = None if args.json else (lambda msg: print(msg, file=sys.stderr, flush=True))
+        plot = str(DEFAULT_ERROR_PLOT) if args.plot is None else args.plot
         records = run_error_bench(quick=args.quick, threads=max(args.threads),
-                                  plot=args.plot or None, print_table=not args.json, progress=say)
+                                  plot=plot or None, print_table=not args.json, progress=say)
         if args.json:
             print(json.dumps(records, indent=1))
         return 0
@@ -243,6 +247,43 @@ def cmd_blend(args) -> int:
     return 0
 
 
+def cmd_batch(args) -> int:
+    from .distributed import JobError, load_job, run_job
+
+    try:
+        job = load_job(args.job)
+    except JobError as exc:
+        print(f"photic batch: {exc}", file=sys.stderr)
+        return 2
+    except (FileNotFoundError, RuntimeError) as exc:  # .blend inputs: bpy or the add-on missing
+        print(f"photic batch: {exc}", file=sys.stderr)
+        return 2
+    try:
+        report = run_job(job, args.out, scheduler=args.scheduler, workers=args.workers,
+                         threads=args.threads, progress=not args.quiet, fresh=args.fresh)
+    except KeyboardInterrupt:
+        print("photic batch: interrupted; the finished units are kept: run the same command "
+              "again to resume", file=sys.stderr)
+        return 130
+    except (OSError, TimeoutError) as exc:  # the scheduler did not answer, or a file failed
+        what = f"cannot reach the Dask scheduler {args.scheduler} or" if args.scheduler else "cannot"
+        print(f"photic batch: {what} write the results: {exc}", file=sys.stderr)
+        return 2
+    for name, s in report.items.items():
+        err = s.get("worst_rel_stderr")
+        extra = f", worst radiometer rel. error {100 * err:.3g}%" if err is not None else ""
+        if s.get("rounds", 1) > 1:
+            extra += f", {s['rounds']} rounds"
+        print(f"{name}: {s['status']}{extra}")
+        for f in s["files"]:
+            print(f"  {f}")
+    failed = f", {len(report.failed)} failed (run again to retry them)" if report.failed else ""
+    print(f"{len(report.computed)} units computed, {len(report.skipped)} reused from "
+          f"{report.out / 'units'}{failed}")
+    print(f"{report.executor}; {report.wall_s:.1f} s; summary: {report.out / 'summary.json'}")
+    return 0 if report.ok else 1
+
+
 def cmd_plugins(args) -> int:
     from . import plugins
     for kind, group in plugins.GROUPS.items():
@@ -303,6 +344,29 @@ def build_parser() -> argparse.ArgumentParser:
     pr.add_argument("--json", action="store_true",
                     help="print records (problem, omega0, tau, quantity, value, stderr, reference, cv, seconds, passed)")
     pr.set_defaults(func=cmd_problems)
+    bt = sub.add_parser("batch", help="run a job of many renders on Dask (a local cluster by default)",
+                        description="Runs JOB (a job file, docs/distributed.md: scenes or .blend files, "
+                                    "frames, swept parameters, samples or a target standard error) as "
+                                    "independent work units on a Dask cluster: a local one by default, "
+                                    "the scheduler at --scheduler otherwise. Each unit's sums are written "
+                                    "to OUT/units as it completes; each item's EXR images and radiometer "
+                                    "tables to OUT/results/<item> when all its units are in; "
+                                    "OUT/summary.json lists the items. Run the same command again after an "
+                                    "interruption to resume: finished units are not computed again. The "
+                                    "results are the same bit for bit on any cluster.")
+    bt.add_argument("job", type=Path, help="job file (.json)")
+    bt.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                    help="Dask scheduler address (e.g. tcp://10.0.0.5:8786); default: a local cluster")
+    bt.add_argument("--workers", type=int, default=None,
+                    help="local cluster worker processes (default: one per core); 0 runs the units "
+                         "in this process without Dask")
+    bt.add_argument("--threads", type=int, default=None,
+                    help="core threads per unit (default: the job's, else cores / workers)")
+    bt.add_argument("--out", type=Path, default=None,
+                    help="output folder (default: the job's 'out', else out/<job name>)")
+    bt.add_argument("--fresh", action="store_true", help="delete stored units first (no resume)")
+    bt.add_argument("--quiet", action="store_true", help="no progress bar")
+    bt.set_defaults(func=cmd_batch)
     pl = sub.add_parser("plugins", help="list installed IOP-model and wave-model plugins",
                         description="Lists the plugins found through the entry-point groups "
                                     "photic.iop_models and photic.wave_models (see "
@@ -365,8 +429,22 @@ def build_parser() -> argparse.ArgumentParser:
                         "the stepped pool's underwater camera, relative error against a reference "
                         "rendered with hybrid cone 0 at a large budget; prints a table and the time to "
                         "5%% error, writes a log-log plot (threads: the largest of --threads)")
-    b.add_argument("--plot", default=str(Path(__file__).resolve().parents[3] / "docs" / "images" / "bench_error.png"),
-                   help="with --error: PNG plot of error against time (default: docs/images/bench_error.png; "
+    b.add_argument("--plot", default=None,
+                   help="with --error: PNG plot of error against time (default: docs/images/bench_error.png); "
+                        "with --large: time and memory against triangles (default: "
+                        "docs/images/large_scenes.png); '' for none")
+    b.add_argument("--large", action="store_true",
+                   help="large scenes instead: a seabed with rocks of 1e4 to 1e7 triangles under a tiled "
+                        "wave surface, each size in a fresh process: peak memory, bytes per triangle, "
+                        "build time, time per camera and radiometer sample and per ray; the closed-mesh "
+                        "check of a water body; a tiled ocean's memory (threads: the largest of --threads)")
+    b.add_argument("--sizes", nargs="+", default=None, metavar="N",
+                   help="with --large: triangle counts (default: 1e4 1e5 1e6 1e7)")
+    b.add_argument("--repeats", type=int, default=3,
+                   help="with --large: processes per size and renders per process (medians; default 3)")
+    b.add_argument("--no-ocean", action="store_true", help="with --large: no tiled-ocean cases")
+    b.add_argument("--out-json", default=None, metavar="PATH",
+                   help="with --large: JSON file of the records (default: docs/images/large_scenes.json; "
                         "'' for none)")
     b.set_defaults(func=cmd_bench)
     return p

@@ -177,6 +177,72 @@ def _mean_stderr(s: np.ndarray, s2: np.ndarray, n) -> tuple[np.ndarray, np.ndarr
     return mean, np.sqrt(var / nn)
 
 
+# --- pieces shared with photic.distributed, whose work units must reproduce these passes -----
+
+def camera_passes(samples: int) -> list[tuple[int, int]]:
+    """(first sample, count) of each camera pass: 1, 2, 4, 8, then 16 samples per pixel."""
+    passes, start, size = [], 0, 1
+    while start < samples:
+        n = min(size, samples - start)
+        passes.append((start, n))
+        start += n
+        size = min(size * 2, 16)
+    return passes
+
+
+def radiometer_passes(samples: int, hybrid: bool) -> list[tuple[int, int]]:
+    """(first sample, count) of each radiometer pass.
+
+    The hybrid integrator draws a sun direction per pass: at least 64 passes (of 4,096 to
+    65,536 samples) so the disk is sampled evenly and its spread stays well inside the
+    reported standard error."""
+    size = RADIOMETER_PASS
+    if hybrid:
+        size = int(np.clip(-(-samples // 64) // 1024 * 1024, 4096, RADIOMETER_PASS))
+    return [(s, min(size, samples - s)) for s in range(0, samples, size)]
+
+
+def build_pass_beams(core, scene: Scene, seed: int, gi: int, key: tuple, i: int, n: int,
+                     threads: int) -> None:
+    """Before pass ``i`` of ``n`` of the hybrid integrator: beams for direction i of n drawn in
+    the sun's disk (deterministic per seed, band group ``gi`` and sensor ``key``)."""
+    rng = np.random.default_rng([seed, gi, *key])
+    direction = tuple(sun_direction_in_disk(scene, i, n, rng))
+    if core.ocean_rough:
+        # The sub-pixel facet(s) of the rough surface for this build, stratified over
+        # the passes like the sun's disk.
+        r = rng.random(2)
+        core.build_beams(direction, threads,
+                         ((i + r[0]) / n, (r[1] + i * 0.6180339887498949) % 1.0))
+    else:
+        core.build_beams(direction, threads)
+
+
+def image_result(name: str, s: np.ndarray, s2: np.ndarray, n: int) -> ImageResult:
+    """A camera's result from its sums (H, W, components + 1, nbands) over ``n`` samples."""
+    mean, err = _mean_stderr(s, s2, n)
+    comps = {c: mean[:, :, i + 1, :] for i, c in enumerate(COMPONENTS[:3])}
+    return ImageResult(name, mean[:, :, 0, :], err[:, :, 0, :] ** 2, n, comps)
+
+
+def radiometer_result(r, medium: str, s: np.ndarray, s2: np.ndarray, done: int,
+                      batch=None) -> RadiometerResult:
+    """A radiometer's result from its sums (nbins, components + 1, nbands) over ``done``
+    samples; ``batch``: [sum, sum of squares, count] of the hybrid integrator's pass means."""
+    nbins = s.shape[0]
+    counts = _bin_counts(done, nbins)[:, None, None]
+    mean, err = _mean_stderr(s, s2, counts)
+    if batch is not None:
+        bs, bs2, bn = batch
+        k = np.maximum(bn, 2.0)
+        var = np.maximum(0.0, bs2 - bs * bs / k) / (k - 1.0)
+        err = np.where(bn >= 4, np.maximum(err, np.sqrt(var / k)), err)
+    bins = (r.polar_bins, r.azimuth_bins) if r.quantity == "radiance_distribution" else None
+    comps = {c: (mean[:, i + 1, :], err[:, i + 1, :]) for i, c in enumerate(COMPONENTS)}
+    return RadiometerResult(r.name, r.quantity, np.asarray(r.position, float), medium,
+                            mean[:, 0, :], err[:, 0, :], done, bins, comps)
+
+
 class Renderer:
     """Renders a validated scene progressively.
 
@@ -228,18 +294,10 @@ class Renderer:
                 return None
             n = self._cam_done[camera]
             s, s2 = (a.copy() for a in self._cam_sums[camera])
-        mean, err = _mean_stderr(s, s2, n)
-        comps = {name: mean[:, :, i + 1, :] for i, name in enumerate(COMPONENTS[:3])}
-        return ImageResult(camera, mean[:, :, 0, :], err[:, :, 0, :] ** 2, n, comps)
+        return image_result(camera, s, s2, n)
 
     def _camera_passes(self) -> list[tuple[int, int]]:
-        passes, start, size = [], 0, 1
-        while start < self.samples:
-            n = min(size, self.samples - start)
-            passes.append((start, n))
-            start += n
-            size = min(size * 2, 16)
-        return passes
+        return camera_passes(self.samples)
 
     def run(self, progress=None) -> RenderResult:
         """Render everything; ``progress(fraction, message)`` is called after every pass."""
@@ -256,14 +314,7 @@ class Renderer:
         cam_done = self._cam_done = {c.name: 0 for c in scene.cameras}
         rad_sums, rad_done, rad_batch = [], [0] * len(radiometers), []
         cam_passes = self._camera_passes()
-        # The hybrid integrator draws a sun direction per pass: at least 64 passes (of 4,096 to
-        # 65,536 samples) so the disk is sampled evenly and its spread stays well inside the
-        # reported standard error.
-        size = RADIOMETER_PASS
-        if hybrid:
-            size = int(np.clip(-(-self.radiometer_samples // 64) // 1024 * 1024, 4096, RADIOMETER_PASS))
-        rad_passes = [(s, min(size, self.radiometer_samples - s))
-                      for s in range(0, self.radiometer_samples, size)]
+        rad_passes = radiometer_passes(self.radiometer_samples, hybrid)
         total_work = len(groups) * (sum(c.resolution[0] * c.resolution[1] * self.samples for c in scene.cameras)
                                     + len(radiometers) * self.radiometer_samples)
         done_work = 0
@@ -281,17 +332,8 @@ class Renderer:
             the sun's disk (deterministic per seed, band group and sensor)."""
             if not hybrid:
                 return
-            rng = np.random.default_rng([self.seed, gi, *key])
             tb = time.perf_counter()
-            direction = tuple(sun_direction_in_disk(scene, i, n, rng))
-            if core.ocean_rough:
-                # The sub-pixel facet(s) of the rough surface for this build, stratified over
-                # the passes like the sun's disk.
-                r = rng.random(2)
-                core.build_beams(direction, self.threads,
-                                 ((i + r[0]) / n, (r[1] + i * 0.6180339887498949) % 1.0))
-            else:
-                core.build_beams(direction, self.threads)
+            build_pass_beams(core, scene, self.seed, gi, key, i, n, self.threads)
             beam_stats["build_s"] += time.perf_counter() - tb
             beam_stats["passes"] += 1
             beam_stats["prisms"] = max(beam_stats["prisms"], core.beam_count)
@@ -366,26 +408,13 @@ class Renderer:
         elapsed = time.perf_counter() - t0
 
         for cam in scene.cameras:
-            n = cam_done[cam.name]
-            mean, err = _mean_stderr(cam_sums[cam.name][0], cam_sums[cam.name][1], n)
-            comps = {name: mean[:, :, i + 1, :] for i, name in enumerate(COMPONENTS[:3])}
-            result.images[cam.name] = ImageResult(cam.name, mean[:, :, 0, :], err[:, :, 0, :] ** 2, n, comps)
+            result.images[cam.name] = image_result(cam.name, *cam_sums[cam.name], cam_done[cam.name])
         for ri, r in enumerate(radiometers):
             if ri >= len(rad_sums):
                 break
-            nbins = rad_sums[ri][0].shape[0]
-            counts = _bin_counts(rad_done[ri], nbins)[:, None, None]
-            mean, err = _mean_stderr(rad_sums[ri][0], rad_sums[ri][1], counts)
-            if ri < len(rad_batch):
-                bs, bs2, bn = rad_batch[ri]
-                k = np.maximum(bn, 2.0)
-                var = np.maximum(0.0, bs2 - bs * bs / k) / (k - 1.0)
-                err = np.where(bn >= 4, np.maximum(err, np.sqrt(var / k)), err)
-            bins = (r.polar_bins, r.azimuth_bins) if r.quantity == "radiance_distribution" else None
-            comps = {name: (mean[:, i + 1, :], err[:, i + 1, :]) for i, name in enumerate(COMPONENTS)}
-            result.radiometers.append(RadiometerResult(r.name, r.quantity, np.asarray(r.position, float),
-                                                       media[ri] or "air", mean[:, 0, :], err[:, 0, :],
-                                                       rad_done[ri], bins, comps))
+            result.radiometers.append(radiometer_result(
+                r, media[ri] or "air", *rad_sums[ri], rad_done[ri],
+                rad_batch[ri] if ri < len(rad_batch) else None))
         result.cancelled = cancelled
         result.stats = dict(counters, time_s=elapsed, threads=threads, seed=self.seed,
                             samples=self.samples, radiometer_samples=self.radiometer_samples,
