@@ -24,12 +24,19 @@ def band_groups(nbands: int) -> list[slice]:
 
 
 def _oriented_up(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Triangles of a height-field patch wound so their normals point up (air side)."""
-    v = vertices[triangles]
-    nz = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])[:, 2]
+    """Triangles of a height-field patch wound so their normals point up (air side).
+
+    Only the z component of each normal is needed: it is computed from the x and y columns
+    in blocks, so a patch of millions of triangles needs no (M, 3, 3) temporary."""
+    x, y = vertices[:, 0], vertices[:, 1]
     tri = triangles.copy()
-    flip = nz < 0
-    tri[flip] = tri[flip][:, [0, 2, 1]]
+    block = 1 << 18
+    for start in range(0, len(tri), block):
+        t = tri[start:start + block]  # a view: flipped in place
+        x0, y0 = x[t[:, 0]], y[t[:, 0]]
+        nz = (x[t[:, 1]] - x0) * (y[t[:, 2]] - y0) - (y[t[:, 1]] - y0) * (x[t[:, 2]] - x0)
+        flip = nz < 0
+        t[flip] = t[flip][:, [0, 2, 1]]
     return tri
 
 

@@ -17,6 +17,7 @@ with z up.
 from __future__ import annotations
 
 import difflib
+import gc
 import json
 import math
 import numbers
@@ -418,7 +419,7 @@ class TriangleMesh(_ArrayEq):
         if t.dtype.kind == "f" and np.all(np.isfinite(t)) and np.all(t == np.round(t)):
             t = t.astype(np.int64)
         if t.dtype.kind in "iu":
-            t = t.astype(np.int64)
+            t = t.astype(np.int64, copy=False)  # np.array above already copied
         self.triangles = t
 
 
@@ -836,22 +837,40 @@ def _check_mesh(label: str, prefix: str, mesh: Any) -> None:
     if len(t) == 0 or len(v) == 0:
         raise SceneError(label, f"{prefix}triangles", "empty mesh: at least one triangle is "
                                                       "required")
-    bad = np.flatnonzero(~np.all(np.isfinite(v), axis=1))
-    if len(bad):
+    # Large meshes (millions of triangles) are checked in blocks, so the temporaries stay a
+    # few tens of MB whatever the size; the whole-array reductions come first as fast paths.
+    if not np.isfinite(v).all():
+        bad = np.flatnonzero(~np.all(np.isfinite(v), axis=1))
         raise SceneError(label, f"{prefix}vertices[{bad[0]}]", f"must be finite, got "
                                                               f"{v[bad[0]].tolist()}")
-    bad = np.flatnonzero(np.any((t < 0) | (t >= len(v)), axis=1))
-    if len(bad):
+    if t.min() < 0 or t.max() >= len(v):
+        bad = np.flatnonzero(np.any((t < 0) | (t >= len(v)), axis=1))
         raise SceneError(label, f"{prefix}triangles[{bad[0]}]",
                          f"vertex index out of range 0..{len(v) - 1}: {t[bad[0]].tolist()}")
-    p0, p1, p2 = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
-    area = 0.5 * np.linalg.norm(np.cross(p1 - p0, p2 - p0), axis=1)
     diagonal2 = float(np.sum((v.max(axis=0) - v.min(axis=0)) ** 2))
-    bad = np.flatnonzero((area < _DEGENERATE_AREA_FRACTION * diagonal2) | (area == 0.0))
-    if len(bad):
-        raise SceneError(label, f"{prefix}triangles[{bad[0]}]",
-                         f"zero-area (degenerate) triangle {t[bad[0]].tolist()}: area "
-                         f"{area[bad[0]]:.3g} m^2 < 1e-12 x (bounding-box diagonal)^2")
+    limit = _DEGENERATE_AREA_FRACTION * diagonal2
+    for start in range(0, len(t), _MESH_CHECK_BLOCK):
+        area = _triangle_areas(v, t[start:start + _MESH_CHECK_BLOCK])
+        bad = np.flatnonzero((area < limit) | (area == 0.0))
+        if len(bad):
+            i = start + int(bad[0])
+            raise SceneError(label, f"{prefix}triangles[{i}]",
+                             f"zero-area (degenerate) triangle {t[i].tolist()}: area "
+                             f"{area[bad[0]]:.3g} m^2 < 1e-12 x (bounding-box diagonal)^2")
+
+
+_MESH_CHECK_BLOCK = 1 << 18  # triangles per block of the mesh checks
+
+
+def _triangle_areas(v: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Areas (float64) of the triangles ``t`` (M, 3) over the vertices ``v``."""
+    p0 = v[t[:, 0]].astype(np.float64, copy=False)
+    e1 = v[t[:, 1]] - p0
+    e2 = v[t[:, 2]] - p0
+    cx = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
+    cy = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
+    cz = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    return 0.5 * np.sqrt(cx * cx + cy * cy + cz * cz)
 
 
 def check_closed_mesh(label: str, mesh: TriangleMesh) -> None:
@@ -866,23 +885,85 @@ def check_closed_mesh(label: str, mesh: TriangleMesh) -> None:
 
 
 def _check_closed(label: str, mesh: TriangleMesh) -> None:
-    """Require a watertight, consistently wound mesh with outward normals."""
-    import trimesh  # imported here: loading trimesh is slow and only meshes need it
+    """Require a watertight, consistently wound mesh with outward normals.
 
-    tm = trimesh.Trimesh(vertices=mesh.vertices, faces=mesh.triangles, process=False)
-    # Closedness is geometric: vertices duplicated at the same position (seams) are joined.
-    tm.merge_vertices()
-    if not tm.is_watertight:
-        open_edges = len(trimesh.grouping.group_rows(tm.edges_sorted, require_count=1))
+    The same rules as trimesh's ``merge_vertices``, ``is_watertight``, ``is_winding_consistent``
+    and ``volume`` (tests/test_large_scenes.py compares them), in O(M log M) time and about
+    40 bytes per triangle of temporaries (trimesh needs ~470), so that meshes of millions of
+    triangles are checked in seconds:
+
+    - closedness is geometric: vertices at the same position (to 1e-8 m) are joined first;
+    - every edge must belong to exactly two triangles, which traverse it in opposite
+      directions (consistent winding);
+    - the enclosed volume (divergence theorem) must be positive (outward normals).
+    """
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    ids, n = _merged_vertex_ids(v)
+    tri = mesh.triangles
+    m = len(tri)
+    if n >= 1 << 31:  # edge keys would overflow int64: not reachable in memory anyway
+        raise SceneError(label, "triangles", f"water mesh has too many vertices ({n})")
+    # One int64 key per directed edge: 2 (lo n + hi) + (a > b); sorted, the two uses of an
+    # edge are then neighbours, the lower key traversing it from lo to hi.
+    keys = np.empty(3 * m, np.int64)
+    for j in range(3):
+        a, b = ids[tri[:, j]], ids[tri[:, (j + 1) % 3]]
+        k = keys[j * m:(j + 1) * m]
+        np.minimum(a, b, out=k)
+        k *= n
+        k += np.maximum(a, b)
+        k *= 2
+        k += a > b
+        del a, b
+    keys.sort()
+    edge = keys >> 1
+    first, second = edge[0::2], edge[1::2]
+    closed = len(keys) % 2 == 0 and bool(np.array_equal(first, second)) and bool(
+        np.all(first[1:] != second[:-1]))
+    if not closed:
+        _, counts = np.unique(edge, return_counts=True)
         raise SceneError(label, "triangles", f"water mesh is not closed (watertight): "
-                                             f"{open_edges} edge(s) belong to only one triangle")
-    if not tm.is_winding_consistent:
-        raise SceneError(label, "triangles", "water mesh winding is inconsistent: neighbouring "
-                                             "triangles have opposite orientations")
-    if not tm.volume > 0:
+                                             f"{int(np.count_nonzero(counts == 1))} edge(s) "
+                                             f"belong to only one triangle")
+    del edge, first, second
+    # Opposite directions: flags 0 then 1 in each pair (an edge from a vertex to itself, in
+    # a triangle whose corners were joined, counts as consistent, as in trimesh).
+    k0, k1 = keys[0::2], keys[1::2]
+    ok = ((k0 & 1) == 0) & ((k1 & 1) == 1)
+    if not ok.all():
+        lo_hi = k0[~ok] >> 1
+        if not np.all(lo_hi // n == lo_hi % n):
+            raise SceneError(label, "triangles", "water mesh winding is inconsistent: "
+                                                 "neighbouring triangles have opposite "
+                                                 "orientations")
+    del keys, k0, k1, ok
+    volume = 0.0
+    for start in range(0, m, _MESH_CHECK_BLOCK):
+        t = tri[start:start + _MESH_CHECK_BLOCK]
+        p0, p1, p2 = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
+        cx = (p1[:, 1] - p0[:, 1]) * (p2[:, 2] - p0[:, 2]) - (p1[:, 2] - p0[:, 2]) * (p2[:, 1] - p0[:, 1])
+        volume += float(np.dot(cx, p0[:, 0] + p1[:, 0] + p2[:, 0]))
+    volume /= 6.0
+    if not volume > 0:
         raise SceneError(label, "triangles", f"water mesh normals point inwards (enclosed volume "
-                                             f"{tm.volume:.6g} m^3 <= 0); reverse the winding "
+                                             f"{volume:.6g} m^3 <= 0); reverse the winding "
                                              f"of every triangle")
+
+
+def _merged_vertex_ids(v: np.ndarray) -> tuple[np.ndarray, int]:
+    """(id per vertex, number of ids): vertices whose coordinates agree when rounded to 1e-8
+    (trimesh's ``tol.merge``) share an id."""
+    q = np.round(v * 1e8).astype(np.int64)
+    order = np.lexsort((q[:, 2], q[:, 1], q[:, 0]))
+    qs = q[order]
+    del q
+    new = np.empty(len(v), bool)
+    new[:1] = True
+    np.any(qs[1:] != qs[:-1], axis=1, out=new[1:])
+    del qs
+    ids = np.empty(len(v), np.int64)
+    ids[order] = np.cumsum(new) - 1
+    return ids, int(np.count_nonzero(new))
 
 
 def _validate_phase(label: str, prefix: str, phase: Any) -> None:
@@ -1374,10 +1455,14 @@ def _read_mesh_file(label: str, fld: str, path: Path) -> tuple[np.ndarray, np.nd
         raise SceneError(label, fld, f"mesh file not found: {path}")
     try:
         tm = trimesh.load(str(path), force="mesh")
-        vertices = np.asarray(tm.vertices, dtype=np.float64).reshape(-1, 3)
-        triangles = np.asarray(tm.faces, dtype=np.int64).reshape(-1, 3)
+        vertices = np.array(tm.vertices, dtype=np.float64).reshape(-1, 3)
+        triangles = np.array(tm.faces, dtype=np.int64).reshape(-1, 3)
     except Exception as exc:  # trimesh raises many kinds of errors for bad files
         raise SceneError(label, fld, f"cannot read mesh file {path}: {exc}") from exc
+    # A trimesh object holds reference cycles: without a collection its caches (over 100
+    # bytes per triangle) would stay resident until the garbage collector happens to run.
+    del tm
+    gc.collect()
     if len(triangles) == 0:
         raise SceneError(label, fld, f"mesh file {path} contains no triangles")
     return vertices, triangles
