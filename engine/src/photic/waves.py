@@ -644,9 +644,12 @@ def patch_mesh(fld: WaveField, z: float = 0.0) -> tuple[np.ndarray, np.ndarray, 
     return vertices, triangles.astype(np.int64), vn
 
 
-@lru_cache(maxsize=8)
+@lru_cache(maxsize=2)
 def surface_patch(model: WaveModel, z: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`patch_mesh` of :func:`generate` (cached by model; arrays read-only)."""
+    """:func:`patch_mesh` of :func:`generate` (cached by model; arrays read-only).
+
+    Two entries: a scene's validation and compilation reuse its patch, while a long-lived
+    worker rendering many time steps does not hold many 2048^2 patches (about 0.4 GB each)."""
     out = patch_mesh(generate(model), z)
     for a in out:
         a.flags.writeable = False
