@@ -3,6 +3,7 @@ box): a constant grid is homogeneous water, a horizontal slab is a two-layer pro
 stratified column given as a grid equals the same 'iop_profile'; the scene format and its
 errors. Fixed seeds; z-scores recorded."""
 import json
+import math
 
 import numpy as np
 import pytest
@@ -107,6 +108,58 @@ def test_stratified_column_as_grid_and_profile(zscore):
     prof = render(sea(RADS, profile=([0.0, -1.5, -4.0], layers), seed=71), radiometer_samples=30_000)
     g = render(sea(RADS, grid=grid(base, unit, rho, box), seed=72), radiometer_samples=30_000)
     compare(zscore, "column grid vs profile", prof, g)
+
+
+def test_case1_chlorophyll_maximum_as_profile_and_grid_and_gershun(zscore):
+    """A Case-1 column with a Gaussian chlorophyll maximum (0.2 mg m^-3 background, +2 at 4 m,
+    width 1 m), at 440 nm where the classic model needs no a*_c table (a*_c(440) / a*_c(440) = 1):
+    pure sea water plus particles and co-varying CDOM, a_p = 0.072 C^0.65 and b_p = 0.375 C^0.65
+    (the classic b_p = 0.30 C^0.62 (550/440), with C's exponent taken as absorption's: one
+    density field scales a and b together), as 0.25-m layers of an iop_profile and as the
+    same 0.25-m voxels of a grid. Hybrid, sun and sky:
+    - Ed, Eu, Eo at 1, 3 and 6 m from the profile and from the grid agree within errors;
+    - Gershun's law holds across the maximum in the grid render, with the local absorption:
+      (Ed - Eu)(3 m) - (Ed - Eu)(5 m) = sum over the 8 layers of a_i int Eo dz (Eo at the
+      layers' midpoints; the midpoint rule's error ~ (K h)^2 / 24 < 1e-3)."""
+    from photic.iop_models import SpectralTable, case1_classic, pure_water
+    from photic.profiles import gaussian_chlorophyll
+    band = [(440.0, 1.0)]  # (centre, width) nm
+    flat = SpectralTable("a*_c normalised at 440 nm", [430.0, 450.0], a_star=[1.0, 1.0])
+    water = pure_water(band)
+    a_w, b_w = float(water.absorption[0]), float(sum(c.b[0] for c in water.scattering))
+    unit_model = case1_classic(band, 1.0, flat)   # C = 1: the unit of C^0.65
+    a_unit, b_unit = float(unit_model.absorption[0]), float(unit_model.scattering[0].b[0])
+    assert a_unit == pytest.approx(0.072, rel=1e-4) and b_unit == pytest.approx(0.375, rel=1e-4)
+    chl = gaussian_chlorophyll(background=0.2, peak=2.0, z_max=-4.0, width=1.0)
+    h, n = 0.25, 160                     # 0.25-m layers / voxels from 0 to 40 m
+    tops = -h * np.arange(n)
+    fine = (np.arange(64) + 0.5) / 64
+    rho = np.array([np.mean([chl(t - h * f) ** 0.65 for f in fine]) for t in tops])
+    base = mixture(a_w, 0.0, b_w)
+    unit = mixture(a_unit, b_unit, 0.0)
+    layers = [add(base, unit, r) for r in rho] + [base]   # below 40 m: the grid's outside
+    # density[0, 0, k]: k counts up from the box's bottom at 40 m
+    g = grid(base, unit, rho[::-1].reshape(1, 1, n), ([-500.0, -500.0, -40.0], [1000.0, 1000.0, 40.0]))
+    mids = 3.0 + h * (np.arange(8) + 0.5)
+    rads = RADS + [rad("Ed", 5.0), rad("Eu", 5.0)] + [rad("Eo", z) for z in mids]
+    samples = 40_000
+    prof = render(sea(rads, profile=(list(tops) + [-40.0], layers), seed=91), radiometer_samples=samples)
+    grd = render(sea(rads, grid=g, seed=92), radiometer_samples=samples)
+    for r in RADS:
+        a, b = prof.radiometer(r["name"]), grd.radiometer(r["name"])
+        se = float(np.hypot(a.stderr[0, 0], b.stderr[0, 0]))
+        assert abs(zscore(f"case-1 column grid vs profile {r['name']}", b.mean[0, 0], a.mean[0, 0], se)) < Z_MAX
+    val = lambda name: (grd.radiometer(name).mean[0, 0], grd.radiometer(name).stderr[0, 0])
+    (ed3, s1), (eu3, s2), (ed5, s3), (eu5, s4) = (val(x) for x in ("Ed_3", "Eu_3", "Ed_5", "Eu_5"))
+    lhs = (ed3 - eu3) - (ed5 - eu5)
+    a_local = a_w + a_unit * rho[12:20]                    # the layers from 3 to 5 m
+    eo = np.array([val(f"Eo_{z:g}") for z in mids])
+    rhs = float(np.sum(a_local * h * eo[:, 0]))
+    se = math.sqrt(s1 ** 2 + s2 ** 2 + s3 ** 2 + s4 ** 2 + float(np.sum((a_local * h * eo[:, 1]) ** 2)))
+    assert abs(zscore("case-1 column Gershun 3-5 m (grid)", lhs, rhs, se)) < Z_MAX
+    assert se / rhs < 0.1
+    # The background's absorption alone misses: the test sees the maximum.
+    assert abs(lhs - (a_w + a_unit * 0.2 ** 0.65) * h * eo[:, 0].sum()) > 3 * se
 
 
 # --------------------------------------------------------------------------------------
