@@ -22,6 +22,34 @@ def ensure_registered() -> None:
         sys.modules[__package__].register()
 
 
+def export_frames(path, frames=None) -> list:
+    """[(frame, photic Scene)] of a .blend file, each exported through the Photic render engine
+    exactly as a final render of that frame would be (render depsgraph, resolution), without
+    rendering it: the scenes of a ``photic batch`` job's .blend input."""
+    path = Path(path).resolve()
+    if not path.is_file():
+        raise FileNotFoundError(f"no such .blend file: {path}")
+    ensure_registered()
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    scene = bpy.context.scene
+    scene.render.engine = "PHOTIC"
+    out = []
+    for frame in frames or [scene.frame_current]:
+        scene.frame_set(int(frame))
+        captured: list = []
+        final_render.EXPORT_HOOK = captured.append
+        final_render.LAST_RENDER.clear()
+        try:
+            bpy.ops.render.render()
+        finally:
+            final_render.EXPORT_HOOK = None
+        if not captured:
+            raise RuntimeError(f"{path.name}, frame {frame}: " + (final_render.LAST_RENDER.get("error") or
+                               "the scene was not exported (is there a camera or a radiometer?)"))
+        out.append((int(frame), captured[0]))
+    return out
+
+
 def render_blend(path, frame: int | None = None, out_dir=None, samples: int | None = None,
                  radiometer_samples: int | None = None, seed: int | None = None,
                  threads: int | None = None, resolution_percentage: int | None = None) -> dict:

@@ -242,36 +242,56 @@ class _Exporter:
 
     # -- water -------------------------------------------------------------------------------
     def iops(self, obj):
-        S = self.photic.scene
+        """The water's IOPs from its IOP source (the base IOPs of a grid)."""
         p = obj.original.photic
         owner = _obj(obj.name)
         if p.iop_source == "MODEL":
-            import json
-            prop = "Photic > IOP Model (photic.iop_model)"
-            try:
-                spec = json.loads(p.iop_model)
-            except ValueError as exc:
-                raise ExportError(owner, prop, f"is not valid JSON: {exc}") from None
-            from photic.iop_models import iops_from_model
-            try:
-                return iops_from_model(spec, [S.Band(*b) for b in self.bands], obj=owner)
-            except S.SceneError as exc:
-                raise ExportError(owner, prop, f"field '{exc.field}': {exc.message}") from None
+            return self.model_iops(owner, p.iop_model, "Photic > IOP Model (photic.iop_model)")
         a = per_band(owner, p.absorption, p.absorption_bands, "Photic > Absorption",
                      "photic.absorption", self.bands, "absorption coefficient")
         b = per_band(owner, p.scattering, p.scattering_bands, "Photic > Scattering",
                      "photic.scattering", self.bands, "scattering coefficient")
+        return self.coefficient_iops(owner, p, a, b)
+
+    def model_iops(self, owner: str, text: str, prop: str, defaults: dict | None = None):
+        """IOPs from a model description in JSON (``defaults`` fill top-level fields it lacks)."""
+        import json
+        S = self.photic.scene
+        try:
+            spec = json.loads(text)
+        except ValueError as exc:
+            raise ExportError(owner, prop, f"is not valid JSON: {exc}") from None
+        if not isinstance(spec, dict):
+            raise ExportError(owner, prop, "must be a JSON object such as "
+                                           "{\"model\": \"cdom\", \"a_ref\": 0.1}")
+        spec = {**(defaults or {}), **spec}
+        from photic.iop_models import iops_from_model
+        try:
+            return iops_from_model(spec, [S.Band(*b) for b in self.bands], obj=owner)
+        except S.SceneError as exc:
+            raise ExportError(owner, prop, f"field '{exc.field}': {exc.message}") from None
+
+    def phase_function(self, owner: str, kind: str, g: float, backscatter: float,
+                       prefix: str = "Photic > "):
+        """A phase function from the enum and its parameter properties."""
+        S = self.photic.scene
         params = {}
-        if p.phase_function == "henyey_greenstein":
-            params = {"g": blender_float(p.hg_g)}
-        elif p.phase_function == "fournier_forand":
-            params = {"backscatter_fraction": blender_float(p.ff_backscatter)}
+        if kind == "henyey_greenstein":
+            params = {"g": blender_float(g)}
+        elif kind == "fournier_forand":
+            params = {"backscatter_fraction": blender_float(backscatter)}
         for pname, value in params.items():
             if not math.isfinite(value):
-                raise ExportError(owner, f"Photic > phase function parameter {pname}",
+                raise ExportError(owner, f"{prefix}phase function parameter {pname}",
                                   f"is {value}")
-        scattering = [S.ScatteringComponent(b, S.PhaseFunction(p.phase_function, params))] \
-            if np.any(b > 0) else []
+        return S.PhaseFunction(kind, params)
+
+    def coefficient_iops(self, owner: str, p, a, b):
+        """IOPs from coefficients per band with the object's phase function; pure water added
+        for the source 'Pure Water + Additions'."""
+        S = self.photic.scene
+        phase = self.phase_function(owner, p.phase_function, p.hg_g, p.ff_backscatter)
+        scattering = [S.ScatteringComponent(b, phase)] if np.any(b > 0) else []
         if p.iop_source == "PURE_WATER":
             water = self.photic.water
             try:
@@ -283,6 +303,14 @@ class _Exporter:
             b_w = np.array([water.pure_water_scattering(c, w) for _, c, w in self.bands])
             scattering.insert(0, S.ScatteringComponent(b_w, S.PhaseFunction("pure_water")))
         return S.IOPs(a, scattering)
+
+    def water_iops(self, obj, level: float, bounds=None):
+        """Homogeneous IOPs, a depth profile or a 3-D grid (``natural_waters``). ``level``:
+        the height depths are measured from (m); ``bounds``: (lo, hi) of a water body."""
+        if obj.original.photic.iop_variation == "NONE":
+            return self.iops(obj)
+        from . import natural_waters
+        return natural_waters.varying_iops(self, obj, level, bounds)
 
     def add_water_body(self, obj, key, matrix, index):
         S = self.photic.scene
@@ -307,8 +335,10 @@ class _Exporter:
             raise ExportError(owner, "mesh (a water body must be a closed mesh with outward "
                                      "normals)", exc.message) from None
         name = obj.name if index == 0 else f"{obj.name} #{index + 1}"
-        self.water.append(S.WaterBody(name, "mesh", self.iops(obj), ior=self._ior(obj),
-                                      mesh=mesh))
+        # Depths of a profile count from the top of the body; a grid defaults to its bounds.
+        iops = self.water_iops(obj, float(world[:, 2].max()),
+                               bounds=(world.min(axis=0), world.max(axis=0)))
+        self.water.append(S.WaterBody(name, "mesh", iops, ior=self._ior(obj), mesh=mesh))
         self.info.triangles += len(t)
 
     def _ior(self, obj) -> float:
@@ -358,7 +388,9 @@ class _Exporter:
                                   f"is {depth}, must be > 0")
             bottom_depth = depth
             bottom_material = self.material(p.bottom_material)
-        self.water.append(S.WaterBody(obj.name, "ocean", self.iops(obj), ior=self._ior(obj),
+        # Depths of a profile count from the mean sea level (a patch's mean height).
+        self.water.append(S.WaterBody(obj.name, "ocean", self.water_iops(obj, float(surface.z)),
+                                      ior=self._ior(obj),
                                       surface=surface, bottom_depth=bottom_depth,
                                       bottom_material=bottom_material))
 

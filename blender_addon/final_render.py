@@ -5,10 +5,13 @@ of a second: Esc (``test_break``) cancels it, the current estimate streams into 
 view with ``update_result`` twice a second, progress and stats (samples, rays/s, estimated
 error) are reported, and the partial image of a cancelled render is kept. It needs only the
 RenderEngine methods it calls, so tests drive it with a stand-in engine as well as through
-Blender.
+Blender. With a Dask scheduler address in the render settings (Scene.photic.dask_scheduler)
+the frame is rendered as work units on that cluster instead (photic.distributed) and the
+merged image streams back the same way; an animation renders frame after frame so.
 """
 from __future__ import annotations
 
+import tempfile
 import threading
 import time
 import traceback
@@ -28,11 +31,16 @@ VARIANCE_PASS = "Photic Variance"
 PASS_NAMES = tuple(p for p, _ in COMPONENT_PASSES) + (VARIANCE_PASS,)
 UPDATE_INTERVAL_S = 0.5
 POLL_S = 0.02
+DASK_CONNECT_TIMEOUT_S = 10.0  # how long a render waits for its Dask scheduler to answer
 
 #: Radiometer results of the last render per scene name (shown in the Render panel), and a
 #: summary of the last render (updates streamed, cancel latency) for tests and the console.
 LAST_RADIOMETERS: dict = {}
 LAST_RENDER: dict = {}
+
+#: When set, a final render only exports its scene and hands it to this callable (the
+#: .blend inputs of ``photic batch`` jobs: see ``batch.export_frames``).
+EXPORT_HOOK = None
 
 
 def set_rect(render_pass, image: np.ndarray) -> None:
@@ -139,6 +147,13 @@ class FinalRender:
             return
         for w in info.warnings:
             engine.report({"WARNING"}, w)
+        if EXPORT_HOOK is not None:
+            EXPORT_HOOK(scene)
+            return
+        address = (getattr(bscene.photic, "dask_scheduler", "") or "").strip()
+        if address:
+            self._run_distributed(photic, scene, bscene, address, info, t0)
+            return
         self.summary["export_s"] = info.time_s
         self.summary["triangles"] = info.triangles
         bands = [(b.name, b.center_nm, b.width_nm) for b in scene.bands]
@@ -204,6 +219,112 @@ class FinalRender:
         self.stats(f"{'cancelled, ' if final.cancelled else ''}{self.summary['samples']} "
                    f"samples in {final.stats['time_s']:.1f} s, "
                    f"{final.stats['segments_per_s'] / 1e6:.2f} M rays/s")
+
+    def _run_distributed(self, photic, scene, bscene, address, info, t0) -> None:
+        """The render as work units on the Dask scheduler at ``address``: the merged camera
+        streams into the render view as units come back; the final image and radiometers are
+        the exact merge, the same numbers as a render on this computer."""
+        from photic.distributed import BatchStopped, CameraPreview, run_job, scene_job
+        from photic.distributed.units import plan_round
+
+        engine = self.engine
+        self.summary["export_s"] = info.time_s
+        self.summary["triangles"] = info.triangles
+        bands = [(b.name, b.center_nm, b.width_nm) for b in scene.bands]
+        camera = scene.cameras[0] if scene.cameras else None
+        width, height = camera.resolution if camera else (1, 1)
+        try:
+            job = scene_job(scene, f"{bscene.name}_{bscene.frame_current:04d}")
+        except photic.scene.SceneError as exc:
+            self.fail(str(exc))
+            return
+        item = job.items[0]
+        total = len(plan_round(item, job, 0))
+        preview = CameraPreview(item, job) if camera is not None else None
+        # Units are kept per scene fingerprint: rendering an unchanged frame again (or after
+        # an interruption) reuses the units already computed.
+        cache = Path(tempfile.gettempdir()) / "photic_dask" / item.fingerprint[:16]
+        done = [0]
+        stop = threading.Event()
+        holder: dict = {}
+
+        def on_unit(unit, res):
+            done[0] += 1
+            if preview is not None:
+                preview.add(unit, res)
+
+        def work():
+            try:
+                holder["report"] = run_job(
+                    job, cache, scheduler=address, progress=False, on_unit_done=on_unit,
+                    on_item_done=lambda _, r: holder.__setitem__("result", r),
+                    should_stop=stop.is_set, write_results=False,
+                    connect_timeout_s=DASK_CONNECT_TIMEOUT_S)
+            except BatchStopped:
+                pass
+            except Exception as exc:  # reported by the polling loop
+                holder["error"] = exc
+                traceback.print_exc()
+
+        self.stats(f"connecting to the Dask scheduler {address}")
+        thread = threading.Thread(target=work, name="photic-dask", daemon=True)
+        result = engine.begin_result(0, 0, width, height)
+        cancel_at = None
+        try:
+            thread.start()
+            last_write, last_stats, last_version = -UPDATE_INTERVAL_S, 0.0, 0
+            while thread.is_alive():
+                thread.join(POLL_S)
+                now = time.perf_counter()
+                if cancel_at is None and engine.test_break():
+                    cancel_at = now
+                    stop.set()
+                    self.stats("cancelling")
+                if cancel_at is not None:
+                    continue
+                # New units in: shown at once, then at most twice a second.
+                if (preview is not None and preview.version != last_version
+                        and now - last_write >= UPDATE_INTERVAL_S):
+                    last_version, last_write = preview.version, now
+                    self._write(result, preview.image(), bands)
+                    engine.update_result(result)
+                    self.summary["updates"] += 1
+                    self.summary["update_times"].append(now - t0)
+                if now - last_stats >= UPDATE_INTERVAL_S:
+                    last_stats = now
+                    engine.update_progress(0.02 + 0.98 * done[0] / max(1, total))
+                    self.stats(f"Dask {address}: {done[0]}/{total} units")
+        finally:
+            if thread.is_alive():
+                stop.set()
+            thread.join()
+            if cancel_at is not None:
+                self.summary["cancelled"] = True
+                self.summary["cancel_latency_s"] = time.perf_counter() - cancel_at
+            final = holder.get("result")
+            image = (final.images.get(camera.name) if final is not None and camera is not None
+                     else preview.image() if preview is not None else None)
+            if image is not None:
+                self._write(result, image, bands)
+            engine.end_result(result)
+        report = holder.get("report")
+        self.summary["distributed"] = {"scheduler": address, "units": total, "cache": str(cache)}
+        if report is not None:
+            self.summary["distributed"].update(computed=len(report.computed), reused=len(report.skipped))
+        if "error" in holder:
+            self.fail(f"render on the Dask scheduler {address} failed: {holder['error']}")
+            return
+        if final is None:
+            if report is not None and report.failed:
+                key, why = next(iter(report.failed.items()))
+                self.fail(f"{len(report.failed)} work unit(s) failed on {address} (first: {key}: {why})")
+            return  # cancelled: the partial image is kept
+        self.summary["samples"] = final.images[camera.name].samples if camera else 0
+        self.summary["stats"] = final.stats
+        self._radiometers(photic, final, bscene)
+        engine.update_progress(1.0)
+        self.stats(f"{self.summary['samples']} samples, {total} units on Dask {address} in "
+                   f"{time.perf_counter() - t0:.1f} s")
 
     def _write(self, result, image, bands) -> None:
         layer = result.layers[0]

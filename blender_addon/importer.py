@@ -81,29 +81,80 @@ def _material(m, bands):
     return mat
 
 
-def _water_props(obj, w) -> None:
-    p = obj.photic
-    if not hasattr(w.iops, "absorption"):  # IOPProfile / IOPGrid: not Blender properties yet
-        kind = "3-D IOPs (an iop_grid)" if hasattr(w.iops, "density") else \
-            "stratified IOPs (an iop_profile)"
-        raise ValueError(f"water '{w.name}': {kind} cannot be edited "
-                         f"in Blender yet; render the scene file with 'photic render'")
-    p.absorption_bands = _numbers(w.iops.absorption)
-    p.ior = w.ior
-    if len(w.iops.scattering) > 1:
-        raise ValueError(f"water '{w.name}': {len(w.iops.scattering)} scattering components; "
-                         f"a Blender water object holds one (mixtures come with the "
-                         f"natural-waters models)")
-    if w.iops.scattering:
-        comp = w.iops.scattering[0]
+def _iops_props(p, owner: str, iops, what: str = "") -> None:
+    """Coefficients and phase function of one set of IOPs (at most one scattering component)."""
+    p.iop_source = "VALUES"
+    p.absorption_bands = _numbers(iops.absorption)
+    if len(iops.scattering) > 1:
+        raise ValueError(f"{owner}: {what}{len(iops.scattering)} scattering components; a "
+                         f"Blender water object holds one (give the water an IOP model in "
+                         f"Blender instead)")
+    if iops.scattering:
+        comp = iops.scattering[0]
         p.scattering_bands = _numbers(comp.b)
-        p.phase_function = comp.phase.type
-        if comp.phase.type == "henyey_greenstein":
-            p.hg_g = comp.phase.params["g"]
-        elif comp.phase.type == "fournier_forand":
-            p.ff_backscatter = comp.phase.params["backscatter_fraction"]
+        _phase_props(p, "", comp.phase)
     else:
-        p.scattering_bands = _numbers(np.zeros_like(w.iops.absorption))
+        p.scattering_bands = _numbers(np.zeros_like(iops.absorption))
+
+
+def _phase_props(p, prefix: str, phase) -> None:
+    setattr(p, f"{prefix}phase_function", phase.type)
+    if phase.type == "henyey_greenstein":
+        setattr(p, f"{prefix}hg_g", phase.params["g"])
+    elif phase.type == "fournier_forand":
+        setattr(p, f"{prefix}ff_backscatter", phase.params["backscatter_fraction"])
+
+
+def _profile_props(obj, w, level: float, bands) -> None:
+    """A profile of layers with one scattering component as a layer table (a Text)."""
+    profile = w.iops
+    p = obj.photic
+    _iops_props(p, f"water '{w.name}'", profile.layers[0], "its profile's layers have ")
+    names = [name for name, _, _ in bands]
+    lines = ["# Photic layer table: one row per layer top, depth in m below the water level",
+             ",".join(["depth_m"] + [f"a_{n}" for n in names] + [f"b_{n}" for n in names])]
+    for z, layer in zip(profile.z_top, profile.layers):
+        b = layer.scattering[0].b if layer.scattering else np.zeros_like(layer.absorption)
+        lines.append(",".join(repr(float(x)) for x in [level - z, *layer.absorption, *b]))
+    text = bpy.data.texts.new(f"{w.name} layers")
+    text.from_string("\n".join(lines) + "\n")
+    p.iop_variation, p.profile_kind, p.profile_table_text = "PROFILE", "TABLE", text
+
+
+def _grid_props(obj, w, collection) -> None:
+    """A grid with one scattering component and a density file; its box as an Empty."""
+    g = w.iops
+    p = obj.photic
+    owner = f"water '{w.name}'"
+    if g.file is None:
+        raise ValueError(f"{owner}: the grid's densities are given inline; Blender reads them "
+                         f"from a .npz: save them with numpy.savez(path, density=array) and "
+                         f"give the grid's 'file'")
+    _iops_props(p, owner, g.iops, "its grid's base IOPs have ")
+    p.unit_source = "VALUES"
+    p.unit_absorption_bands = _numbers(g.unit.absorption)
+    if g.unit.scattering:
+        p.unit_scattering_bands = _numbers(g.unit.scattering[0].b)
+        _phase_props(p, "unit_", g.unit.scattering[0].phase)
+    else:
+        p.unit_scattering_bands = _numbers(np.zeros_like(g.unit.absorption))
+    box = bpy.data.objects.new(f"{w.name} grid box", None)
+    box.empty_display_type, box.empty_display_size = "CUBE", 1.0
+    box.location = tuple(np.asarray(g.origin) + 0.5 * np.asarray(g.size))
+    box.scale = tuple(0.5 * np.asarray(g.size))
+    collection.objects.link(box)
+    p.iop_variation, p.grid_source, p.grid_file, p.grid_box = "GRID", "NPZ", g.file, box
+
+
+def _water_props(obj, w, level: float, bands, collection) -> None:
+    """The water's IOPs (homogeneous, a profile or a grid) and refractive index."""
+    if hasattr(w.iops, "z_top"):
+        _profile_props(obj, w, level, bands)
+    elif hasattr(w.iops, "density"):
+        _grid_props(obj, w, collection)
+    else:
+        _iops_props(obj.photic, f"water '{w.name}'", w.iops)
+    obj.photic.ior = w.ior
 
 
 def import_scene(scene, bscene=None, collection=None) -> dict:
@@ -152,7 +203,9 @@ def import_scene(scene, bscene=None, collection=None) -> dict:
                 obj.photic.use_bottom = True
                 obj.photic.bottom_depth = w.bottom_depth
                 obj.photic.bottom_material = materials.get(w.bottom_material)
-        _water_props(obj, w)
+        # Depths of a profile count from the mean sea level or the top of a body.
+        level = float(np.max(w.mesh.vertices[:, 2])) if w.type == "mesh" else float(w.surface.z)
+        _water_props(obj, w, level, bands, collection)
         obj.display_type = "WIRE"
         created[w.name] = obj
     if scene.sun is not None:

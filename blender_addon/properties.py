@@ -47,6 +47,12 @@ PHASE_FUNCTIONS = [
 ]
 
 
+# File paths may start with '//' (the .blend's folder); Blender 4.5+ asks properties to say so.
+_BLEND_RELATIVE = ({"PATH_SUPPORTS_BLEND_RELATIVE"}
+                   if "is_path_supports_blend_relative" in bpy.types.Property.bl_rna.properties
+                   else set())
+
+
 def _wave_update(self, context):
     # Regenerate the viewport preview of a wave-model surface (imported late: needs numpy).
     from . import waves_preview
@@ -173,6 +179,124 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
                                      description="Material of the sea floor (its base colour "
                                                  "or Photic reflectance); none: grey 0.18")
 
+    # Natural waters: IOPs that vary with depth (a profile) or in 3-D (a density grid)
+    iop_variation: EnumProperty(
+        name="IOP Variation", default="NONE",
+        items=[("NONE", "Homogeneous", "The same IOPs everywhere in the water"),
+               ("PROFILE", "Depth Profile", "Horizontal layers: a Gaussian chlorophyll maximum "
+                                            "through the Case-1 model, or a table of "
+                                            "coefficients against depth"),
+               ("GRID", "3-D Grid", "The IOPs above plus a density field times the unit IOPs "
+                                    "below, over a box (a sediment plume, a bloom)")],
+        description="How the water's IOPs vary in space (docs/blender.md, 'Natural waters')")
+    profile_kind: EnumProperty(
+        name="Profile", default="CHLOROPHYLL",
+        items=[("CHLOROPHYLL", "Chlorophyll Maximum",
+                "C(d) = background + peak exp(-(d - depth of peak)^2 / (2 width^2)) driving "
+                "the Case-1 model; replaces the IOPs above"),
+               ("TABLE", "Layer Table", "Absorption and scattering per band at each depth from "
+                                        "a CSV table (Text or file), with the phase function "
+                                        "above (and pure water with 'Pure Water + Additions')")],
+        description="Where the depth profile comes from")
+    chl_background: FloatProperty(name="Background Chl", default=0.1, min=0.0, soft_max=50.0,
+                                  precision=3, description="Chlorophyll concentration far from "
+                                                           "the maximum (mg m^-3), >= 0")
+    chl_peak: FloatProperty(name="Peak Chl", default=1.0, min=0.0, soft_max=50.0, precision=3,
+                            description="Chlorophyll added at the depth of the maximum "
+                                        "(mg m^-3), >= 0")
+    chl_peak_depth: FloatProperty(name="Depth of Peak", default=20.0, min=0.0, soft_max=200.0,
+                                  unit="LENGTH", description="Depth of the chlorophyll maximum "
+                                                             "below the water level (m)")
+    chl_width: FloatProperty(name="Width", default=5.0, min=0.001, soft_max=100.0,
+                             unit="LENGTH", description="Standard deviation of the Gaussian "
+                                                        "maximum (m), > 0")
+    case1_variant: EnumProperty(
+        name="Case-1 Model", default="classic",
+        items=[("classic", "Classic", "Prieur & Sathyendranath / Gordon & Morel (table "
+                                      "columns wavelength_nm, a_star)"),
+               ("new", "New", "Bricaud et al. 1998 / Morel & Maritorena 2001 (table columns "
+                              "wavelength_nm, A, E)")],
+        description="Case-1 IOP model driven by the chlorophyll profile (docs/iop-models.md)")
+    chl_absorption_text: PointerProperty(
+        type=bpy.types.Text, name="Chl Absorption Text",
+        description="Chlorophyll-specific absorption as CSV in a Text data-block (header "
+                    "wavelength_nm,a_star or wavelength_nm,A,E); none is bundled with Photic")
+    chl_absorption_file: StringProperty(
+        options=_BLEND_RELATIVE,
+        name="Chl Absorption File", subtype="FILE_PATH",
+        description="The same table as a CSV file (used when no Text is chosen; '//' is the "
+                    ".blend's folder)")
+    profile_table_text: PointerProperty(
+        type=bpy.types.Text, name="Layer Table Text",
+        description="Layer table as CSV in a Text data-block: columns depth_m, then a_<band> "
+                    "and b_<band> for every band (e.g. a_450, b_450), or single columns a and "
+                    "b for all bands; one row per layer top (m below the water level)")
+    profile_table_file: StringProperty(
+        options=_BLEND_RELATIVE,
+        name="Layer Table File", subtype="FILE_PATH",
+        description="The same table as a CSV file (used when no Text is chosen; '//' is the "
+                    ".blend's folder)")
+    profile_layer_thickness: FloatProperty(
+        name="Layer Thickness", default=1.0, min=0.01, soft_max=20.0, unit="LENGTH",
+        description="Thickness of the layers the chlorophyll profile is averaged into (m)")
+    profile_max_depth: FloatProperty(
+        name="Profile Depth", default=60.0, min=0.01, soft_max=1000.0, unit="LENGTH",
+        description="Depth below the water level down to which layers are made (m); the "
+                    "deepest layer goes on below it")
+    grid_source: EnumProperty(
+        name="Density", default="NPZ",
+        items=[("NPZ", "Density File (.npz)", "A numpy .npz holding a float array 'density' "
+                                              "(nx, ny, nz), x first, over the grid box"),
+               ("VOLUME", "Volume Object (OpenVDB)", "The 'density' grid of the Grid Box's "
+                                                     "Volume object, read from its .vdb file "
+                                                     "(needs the openvdb Python module)")],
+        description="Where the density field comes from")
+    grid_file: StringProperty(
+        options=_BLEND_RELATIVE, name="Density File", subtype="FILE_PATH",
+        description="The .npz with the array 'density' (dimensionless, >= 0); '//' is the "
+                    ".blend's folder")
+    grid_box: PointerProperty(
+        type=bpy.types.Object, name="Grid Box",
+        description="Object whose world bounds are the grid's box (an Empty: +-Display Size "
+                    "times its scale; a Volume or mesh: its bounding box); not rotated. "
+                    "None: the water body's bounds")
+    unit_source: EnumProperty(
+        name="Unit IOPs", default="VALUES",
+        items=[("VALUES", "Coefficients", "Absorption and scattering per unit density as "
+                                          "given below"),
+               ("MODEL", "IOP Model", "A model description in JSON (docs/iop-models.md); pure "
+                                      "water is not added unless it names \"water\"")],
+        description="IOPs added per unit of density")
+    unit_model: StringProperty(
+        name="Unit IOP Model",
+        default='{"model": "mixture", "components": [{"model": "cdom", "a_ref": 0.3}, '
+                '{"model": "particles", "b_ref": 2.0, "backscatter_fraction": 0.02, '
+                '"a_ref": 0.1}]}',
+        description="IOPs per unit density as a model description in JSON, e.g. sediment "
+                    "particles and CDOM")
+    unit_absorption: FloatProperty(
+        name="Unit Absorption", default=0.1, min=0.0, soft_max=10.0, precision=4,
+        description="Absorption per unit density (m^-1) in every band unless given per band")
+    unit_absorption_bands: StringProperty(
+        name="Unit Absorption per Band",
+        description="Absorption per unit density (m^-1), one per band separated by commas")
+    unit_scattering: FloatProperty(
+        name="Unit Scattering", default=1.0, min=0.0, soft_max=100.0, precision=4,
+        description="Scattering per unit density (m^-1) in every band unless given per band")
+    unit_scattering_bands: StringProperty(
+        name="Unit Scattering per Band",
+        description="Scattering per unit density (m^-1), one per band separated by commas")
+    unit_phase_function: EnumProperty(name="Unit Phase Function", items=PHASE_FUNCTIONS,
+                                      default="fournier_forand",
+                                      description="Phase function of the added scattering")
+    unit_hg_g: FloatProperty(name="Unit Asymmetry g", default=0.9, min=-0.99, max=0.99,
+                             precision=3, description="Henyey-Greenstein g of the added "
+                                                      "scattering, in [-0.99, 0.99]")
+    unit_ff_backscatter: FloatProperty(
+        name="Unit Backscatter Fraction", default=0.02, min=0.0001, max=0.15, precision=4,
+        description="Fournier-Forand backscatter fraction of the added scattering, in "
+                    "[0.0001, 0.15]")
+
     # Radiometers
     quantity: EnumProperty(name="Quantity", items=QUANTITIES, default="Ed",
                            description="What the radiometer measures")
@@ -289,6 +413,12 @@ class PhoticSceneProperties(bpy.types.PropertyGroup):
                                   "bit on any number of threads")
     threads: IntProperty(name="Threads", default=0, min=0, max=1024,
                          description="CPU threads (0: all cores)")
+    dask_scheduler: StringProperty(
+        name="Dask Scheduler", default="",
+        description="Address of a Dask scheduler (e.g. tcp://10.0.0.5:8786) whose workers "
+                    "render final renders and animations as work units, streamed back into the "
+                    "render view; the same numbers bit for bit as rendering here. Empty: "
+                    "render on this computer")
     max_depth: IntProperty(name="Max Depth", default=256, min=1, max=100000,
                            description="Largest number of scattering or reflection events of "
                                        "a path")

@@ -47,6 +47,7 @@ class PHOTIC_PT_render(PhoticPanel, bpy.types.Panel):
         col.prop(p, "seed")
         col.prop(p, "threads")
         col.prop(p, "max_depth")
+        layout.prop(p, "dask_scheduler")
 
 
 class PHOTIC_PT_bands(PhoticPanel, bpy.types.Panel):
@@ -179,6 +180,69 @@ class PHOTIC_PT_object(PhoticPanel, bpy.types.Panel):
                 layout.prop(p, "half_angle")
 
 
+class PHOTIC_PT_iop_variation(PhoticPanel, bpy.types.Panel):
+    """Natural waters: a depth profile or a 3-D grid of IOPs on a water object."""
+
+    bl_label = "IOP Variation"
+    bl_context = "object"
+    bl_parent_id = "PHOTIC_PT_object"
+
+    @classmethod
+    def poll(cls, context):
+        return PHOTIC_PT_object.poll(context) and \
+            context.object.photic.role in {"WATER_BODY", "WATER_SURFACE"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        p = context.object.photic
+        layout.prop(p, "iop_variation")
+        if p.iop_variation == "PROFILE":
+            layout.prop(p, "profile_kind")
+            if p.profile_kind == "CHLOROPHYLL":
+                col = layout.column(align=True)
+                col.prop(p, "chl_background")
+                col.prop(p, "chl_peak")
+                col.prop(p, "chl_peak_depth")
+                col.prop(p, "chl_width")
+                layout.prop(p, "case1_variant")
+                col = layout.column(align=True)
+                col.prop(p, "chl_absorption_text")
+                sub = col.row()
+                sub.active = p.chl_absorption_text is None
+                sub.prop(p, "chl_absorption_file")
+                col = layout.column(align=True)
+                col.prop(p, "profile_layer_thickness")
+                col.prop(p, "profile_max_depth")
+            else:
+                col = layout.column(align=True)
+                col.prop(p, "profile_table_text")
+                sub = col.row()
+                sub.active = p.profile_table_text is None
+                sub.prop(p, "profile_table_file")
+        elif p.iop_variation == "GRID":
+            layout.label(text="IOPs = the IOPs above + density x unit IOPs")
+            layout.prop(p, "grid_source")
+            if p.grid_source == "NPZ":
+                layout.prop(p, "grid_file")
+            layout.prop(p, "grid_box")
+            layout.prop(p, "unit_source")
+            if p.unit_source == "MODEL":
+                layout.prop(p, "unit_model")
+            else:
+                col = layout.column(align=True)
+                col.prop(p, "unit_absorption")
+                col.prop(p, "unit_absorption_bands")
+                col = layout.column(align=True)
+                col.prop(p, "unit_scattering")
+                col.prop(p, "unit_scattering_bands")
+                layout.prop(p, "unit_phase_function")
+                if p.unit_phase_function == "henyey_greenstein":
+                    layout.prop(p, "unit_hg_g")
+                elif p.unit_phase_function == "fournier_forand":
+                    layout.prop(p, "unit_ff_backscatter")
+
+
 class PHOTIC_PT_material(PhoticPanel, bpy.types.Panel):
     bl_label = "Photic Surface"
     bl_context = "material"
@@ -232,4 +296,4 @@ class PHOTIC_PT_world(PhoticPanel, bpy.types.Panel):
 
 
 classes = (PHOTIC_PT_render, PHOTIC_PT_bands, PHOTIC_PT_beams, PHOTIC_PT_radiometer_results,
-           PHOTIC_PT_object, PHOTIC_PT_material, PHOTIC_PT_world)
+           PHOTIC_PT_object, PHOTIC_PT_iop_variation, PHOTIC_PT_material, PHOTIC_PT_world)

@@ -7,7 +7,8 @@ Run it with the oldest supported Blender, so that every supported Blender opens 
         blender --background --factory-startup --python example_blends/make_examples.py
 
 It also runs in the ``bpy`` module (``.venv/bin/python example_blends/make_examples.py
-[--out DIR]``), which is what the tests do to check that the script still works.
+[--out DIR] [--only NAME ...]``), which is what the tests do to check that the script still
+works (``tests/test_addon_natural_waters.py`` builds and renders the plume example).
 
 Scenes:
 
@@ -21,6 +22,11 @@ Scenes:
 - ``underwater_objects.blend``: an underwater camera looking at a rock, a crate, a pillar and a
   ring on a sandy bottom 8 m deep under a wavy sea (a tiling wave patch), with sun shafts, and a
   radiometer profile (Ed, Eu, Eo every metre) beside the diver. The README's main job.
+- ``sediment_plume.blend`` and ``sediment_plume.npz`` beside it: a river's sediment plume
+  entering clear water near a shore, seen from the air; the sea's IOPs are a clear-water model
+  plus a 3-D density grid (the .npz) times the plume's unit IOPs (river CDOM, mineral
+  particles); radiometers 1 m above the plume and above clear water for Rrs (``plume_rrs``,
+  ``scripts/plume_rrs_plot.py``; docs/blender.md, "The sediment plume").
 """
 from __future__ import annotations
 
@@ -136,7 +142,220 @@ def underwater_scene_dict() -> dict:
     }
 
 
-def build(out_dir: Path) -> list[Path]:
+# --------------------------------------------------------------------------------------------
+# sediment_plume.blend: a river's sediment plume entering clear water near a shore
+# --------------------------------------------------------------------------------------------
+# The shore runs along y = 0 with land at +y; the river comes down a channel at x = 0 and its
+# plume leaves the mouth heading offshore (-y), bent towards +x by a longshore current.
+
+PLUME_BANDS = [(415.0 + 30.0 * i, 30.0) for i in range(10)]  # 400-700 nm in 30 nm bands
+PLUME_GRID_SHAPE = (128, 128, 32)                            # voxels (x, y, z): 1.7 x 1.7 x 0.27 m
+PLUME_BOX_ORIGIN = (-60.0, -180.0, -8.0)                     # m; the box reaches 0.5 m above
+PLUME_BOX_SIZE = (220.0, 220.0, 8.5)                         # the sea to hold the river channel
+PLUME_IOR = 1.34
+# Fresnel reflectance of a flat sea at normal incidence: the share of the zenith sky that a
+# nadir-looking radiometer sees reflected (removed from Lu to give the water-leaving radiance).
+PLUME_RHO = ((PLUME_IOR - 1.0) / (PLUME_IOR + 1.0)) ** 2
+PLUME_RADIOMETERS = {"plume": (15.0, -50.0), "clear": (-300.0, -600.0)}  # (x, y) m, 1 m up
+PLUME_RADIOMETER_HEIGHT = 1.0
+
+
+def clear_water_model() -> dict:
+    """Clear coastal ocean: pure water (Pope & Fry), a little CDOM and fine particles."""
+    return {"model": "mixture", "components": [
+        {"model": "cdom", "a_ref": 0.01},
+        {"model": "particles", "b_ref": 0.08, "backscatter_fraction": 0.012, "a_ref": 0.004}]}
+
+
+def plume_unit_model() -> dict:
+    """What one unit of plume density adds: river CDOM and mineral particles that scatter
+    strongly (b_p(550) = 8 m^-1, flat spectrum, b_bp/b_p = 0.02) and absorb in the blue (brown
+    non-algal particles, a_NAP(443) = 0.35 m^-1). No pure water: it is in the base IOPs."""
+    return {"model": "mixture", "water": "none", "components": [
+        {"model": "cdom", "a_ref": 0.5},
+        {"model": "particles", "b_ref": 8.0, "exponent": 0.5, "backscatter_fraction": 0.02,
+         "a_ref": 0.35}]}
+
+
+def _smooth_noise(shape, sigmas, rng) -> np.ndarray:
+    """A random field with standard deviation 1: white noise low-passed (Gaussian filters of
+    the given widths in cells, weights decreasing), periodic (by FFT)."""
+    freqs = np.meshgrid(*[np.fft.fftfreq(n) for n in shape], indexing="ij")
+    k2 = sum(f ** 2 for f in freqs)
+    out = np.zeros(shape)
+    for weight, sigma in zip((1.0, 0.55, 0.3), sigmas):
+        white = np.fft.fftn(rng.standard_normal(shape))
+        field = np.fft.ifftn(white * np.exp(-2.0 * np.pi ** 2 * sigma ** 2 * k2)).real
+        out += weight * field / field.std()
+    return out / out.std()
+
+
+def plume_density(shape=PLUME_GRID_SHAPE, seed: int = 7) -> np.ndarray:
+    """The plume's density on the grid (float32, 1 in the river, decaying offshore).
+
+    In the jet's own coordinates, s along its bending centreline from the mouth and n across
+    it: a Gaussian across of width 5 + 0.28 s m, diluting as 1 / (1 + s / 70 m), its edges
+    meandered and its body broken into eddies by smooth noise; the buoyant fresh water keeps
+    the sediment in a surface layer exp(-(depth / h)^2) thickening from h = 1 m at the mouth.
+    """
+    rng = np.random.default_rng(seed)
+    nx, ny, nz = shape
+    origin, size = np.asarray(PLUME_BOX_ORIGIN), np.asarray(PLUME_BOX_SIZE)
+    x, y, z = (origin[i] + (np.arange(n) + 0.5) * size[i] / n for i, n in enumerate(shape))
+    xx, yy = np.meshgrid(x, y, indexing="ij")
+    # The centreline leaves the mouth heading -y and turns 65 degrees towards +x.
+    step = 0.5
+    s_line = np.arange(0.0, 450.0, step)
+    heading = np.radians(-90.0 + 65.0 * (1.0 - np.exp(-s_line / 90.0)))
+    x_line = np.concatenate([[0.0], np.cumsum(np.cos(heading[:-1]) * step)])
+    y_line = np.concatenate([[0.0], np.cumsum(np.sin(heading[:-1]) * step)])
+    nearest = np.empty((nx, ny), int)
+    for i in range(nx):  # row by row: the distance table of all columns would be large
+        d2 = (xx[i, :, None] - x_line) ** 2 + (yy[i, :, None] - y_line) ** 2
+        nearest[i] = np.argmin(d2, axis=1)
+    s = s_line[nearest]
+    h = heading[nearest]
+    n = -(xx - x_line[nearest]) * np.sin(h) + (yy - y_line[nearest]) * np.cos(h)
+    width = 5.0 + 0.28 * s
+    cells = 128.0 / nx  # noise widths scale with the resolution so the field looks the same
+    meander = _smooth_noise((nx, ny), (6.0 / cells, 3.0 / cells, 1.5 / cells), rng)
+    eddies = _smooth_noise((nx, ny), (4.0 / cells, 2.0 / cells, 1.0 / cells), rng)
+    across = (n + 0.45 * width * meander) / width
+    column = np.exp(-0.5 * across ** 2) / (1.0 + s / 70.0) * np.clip(1.0 + 0.35 * eddies, 0.0, None)
+    column = np.where(yy > 0.0, (np.abs(xx) < 9.0).astype(float), column)  # the river itself
+    fade = np.clip(np.minimum(xx - origin[0], origin[0] + size[0] - xx) / 20.0, 0.0, 1.0)
+    fade *= np.clip((yy - origin[1]) / 20.0, 0.0, 1.0)  # no hard edges at the box's sides
+    thickness = 1.0 + 0.015 * s
+    depth = np.clip(-z, 0.0, None)
+    rho = (column * fade)[:, :, None] * np.exp(-(depth / thickness[:, :, None]) ** 2)
+    return np.clip(rho, 0.0, None).astype(np.float32)
+
+
+def shore_height(x, y):
+    """Ground height (m) of the shore: a sea floor sloping from the waterline at y = 0 to
+    150 m deep at y = -600, a beach and low land rising inland, and a river channel 2.5 m deep
+    along x = 0 that flares at the mouth (the sea fills it)."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    sea_floor = -(0.05 * np.abs(y) + 0.00035 * y ** 2)
+    land = 0.04 * y - 0.00002 * y ** 2 + 0.3 * np.sin(x / 23.0) * np.clip(y / 60.0, 0.0, 1.0)
+    land = np.minimum(land, 3.0 + 0.004 * y)
+    ground = np.where(y < 0.0, sea_floor, land)
+    half_width = 7.0 + 10.0 * np.exp(-np.clip(y, 0.0, None) / 12.0)
+    channel = np.clip(1.0 - (x / half_width) ** 2, 0.0, None)
+    return ground - np.where(y > -20.0, 2.5 * channel * np.clip((y + 20.0) / 20.0, 0.0, 1.0), 0.0)
+
+
+def shore_meshes() -> dict:
+    """The ground as two height-field meshes, fine near the river mouth and coarse far away:
+    'beach' (sand, the sea floor and the beach) and 'land' (grass, from 45 m inland)."""
+    xs = np.concatenate([np.linspace(-700, -150, 12)[:-1], np.linspace(-150, 250, 161)[:-1],
+                         np.linspace(250, 900, 14)])
+    ys = np.concatenate([np.linspace(-700, -250, 10)[:-1], np.linspace(-250, 120, 149)[:-1],
+                         np.linspace(120, 900, 14)])
+    xx, yy = np.meshgrid(xs, ys, indexing="ij")
+    v = np.stack([xx.ravel(), yy.ravel(), shore_height(xx, yy).ravel()], 1)
+    ny = len(ys)
+    i, j = np.meshgrid(np.arange(len(xs) - 1), np.arange(ny - 1), indexing="ij")
+    a = (i * ny + j).ravel()
+    t = np.concatenate([np.stack([a, a + ny, a + ny + 1], 1), np.stack([a, a + ny + 1, a + 1], 1)])
+    inland = v[t].mean(axis=1)[:, 1] > 45.0
+    return {"beach": (v, t[~inland]), "land": (v, t[inland])}
+
+
+def _per_colour(blue: float, green: float, red: float) -> list[float]:
+    """Per-band values that Blender's colours hold exactly: each band takes its nearest
+    primary (below 490 nm blue, to 580 nm green, above red; blender_addon/bands.py)."""
+    return [blue if c < 490 else green if c <= 580 else red for c, _ in PLUME_BANDS]
+
+
+def plume_scene_dict(resolution=(480, 270), samples: int = 96) -> dict:
+    """Everything but the water's natural-waters settings, which build_sediment_plume sets on
+    the Blender object (the importer holds homogeneous IOPs only)."""
+    meshes = shore_meshes()
+    radiometers = []
+    for name, (x, y) in PLUME_RADIOMETERS.items():
+        at = [x, y, PLUME_RADIOMETER_HEIGHT]
+        radiometers += [{"name": f"Lu_{name}", "quantity": "radiance", "position": at,
+                         "direction": [0.0, 0.0, -1.0], "half_angle_deg": 10.0},
+                        {"name": f"Ed_{name}", "quantity": "Ed", "position": at}]
+    x, y = PLUME_RADIOMETERS["plume"]
+    radiometers.append({"name": "Lsky", "quantity": "radiance", "direction": [0.0, 0.0, 1.0],
+                        "position": [x, y, PLUME_RADIOMETER_HEIGHT], "half_angle_deg": 10.0})
+    sand = [0.10, 0.12, 0.14, 0.16, 0.18, 0.20, 0.22, 0.23, 0.24, 0.25]
+    grass = [0.03, 0.035, 0.04, 0.06, 0.09, 0.08, 0.06, 0.05, 0.05, 0.06]
+    return {
+        "photic_scene": 1, "name": "sediment_plume",
+        "bands": [{"name": f"{c:g}", "center_nm": c, "width_nm": w} for c, w in PLUME_BANDS],
+        "materials": {"sand": {"type": "lambertian", "reflectance": sand},
+                      "grass": {"type": "lambertian", "reflectance": grass}},
+        "meshes": [{"name": name, "material": "sand" if name == "beach" else "grass",
+                    "vertices": v.tolist(), "triangles": t.tolist()}
+                   for name, (v, t) in meshes.items()],
+        "water": [{"name": "sea", "type": "ocean", "ior": PLUME_IOR,
+                   "surface": {"kind": "flat", "z": 0.0},
+                   "iops": {"absorption": [0.05] * len(PLUME_BANDS)}}],
+        # A white sun 40 degrees from the zenith behind the camera (no glint in view) and a
+        # blue cardioidal sky (about a third of the blue irradiance is diffuse).
+        "sun": {"zenith_deg": 40.0, "azimuth_deg": 235.0, "irradiance": [1.0] * len(PLUME_BANDS)},
+        "sky": {"type": "cardioidal", "radiance": _per_colour(0.045, 0.029, 0.02)},
+        "cameras": [{"name": "Camera", "type": "perspective", "position": [-70.0, -215.0, 75.0],
+                     "look_at": [35.0, -60.0, -5.0], "up": [0.0, 0.0, 1.0], "fov_deg": 55.0,
+                     "resolution": list(resolution)}],
+        "radiometers": radiometers,
+        "settings": {"integrator": "hybrid", "samples": samples, "seed": 5,
+                     "radiometer_samples": 1_000_000, "beam_max_level": 2},
+    }
+
+
+def build_sediment_plume(out_dir: Path, grid_shape=PLUME_GRID_SHAPE) -> Path:
+    """sediment_plume.blend and, beside it, sediment_plume.npz (the density)."""
+    photic = _import_engine()
+    import bpy
+    addon = photic.cli.load_addon()
+    if not hasattr(bpy.types.Scene, "photic"):
+        addon.register()
+    from importlib import import_module
+    importer = import_module("photic_blender.importer")
+    from photic.scene import Scene
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(out_dir / "sediment_plume.npz", density=plume_density(grid_shape))
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bscene = bpy.context.scene
+    created = importer.import_scene(Scene.from_dict(plume_scene_dict()), bscene)
+    box = bpy.data.objects.new("plume box", None)  # the grid's box, drawn as a cube
+    box.empty_display_type, box.empty_display_size = "CUBE", 1.0
+    box.location = tuple(np.add(PLUME_BOX_ORIGIN, np.multiply(PLUME_BOX_SIZE, 0.5)))
+    box.scale = tuple(np.multiply(PLUME_BOX_SIZE, 0.5))
+    bscene.collection.objects.link(box)
+    p = created["sea"].photic
+    p.iop_source, p.iop_model = "MODEL", json.dumps(clear_water_model())
+    p.iop_variation, p.grid_source, p.grid_box = "GRID", "NPZ", box
+    p.grid_file = "//sediment_plume.npz"  # beside the .blend
+    p.unit_source, p.unit_model = "MODEL", json.dumps(plume_unit_model())
+    path = out_dir / "sediment_plume.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)
+    print(f"wrote {path}")
+    return path
+
+
+def plume_rrs(table) -> dict:
+    """Rrs above the plume and above clear water from a render's radiometer table (path or
+    ``photic.derived.RadiometerTable``): Lw = Lu - rho Lsky with rho the flat sea's Fresnel
+    reflectance at nadir, Rrs = Lw / Ed (photic.derived; sr^-1, with standard errors)."""
+    from photic.derived import load_table, remote_sensing_reflectance
+    table = load_table(table)
+    return {name: remote_sensing_reflectance(f"Lu_{name}", f"Ed_{name}", sky="Lsky",
+                                             rho=PLUME_RHO, table=table)
+            for name in PLUME_RADIOMETERS}
+
+
+EXAMPLES = ("stepped_pool", "canonical_problem2", "underwater_objects", "sediment_plume")
+
+
+def build(out_dir: Path, only=None) -> list[Path]:
+    """Write the examples (``only``: a list of their names) into ``out_dir``."""
+    only = set(only or EXAMPLES)
     photic = _import_engine()
     import bpy
     addon = photic.cli.load_addon()
@@ -150,12 +369,15 @@ def build(out_dir: Path) -> list[Path]:
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
     problem = problem2_scene_dict()
-    (out_dir / "canonical_problem2.json").write_text(json.dumps(problem, indent=1) + "\n")
-    written.append(out_dir / "canonical_problem2.json")
+    if "canonical_problem2" in only:
+        (out_dir / "canonical_problem2.json").write_text(json.dumps(problem, indent=1) + "\n")
+        written.append(out_dir / "canonical_problem2.json")
     scenes = [("stepped_pool", stepped_pool(resolution=(192, 128), waves=True, samples=16)),
               ("canonical_problem2", Scene.from_dict(problem)),
               ("underwater_objects", Scene.from_dict(underwater_scene_dict()))]
     for name, scene in scenes:
+        if name not in only:
+            continue
         bpy.ops.wm.read_homefile(use_empty=True)
         bscene = bpy.context.scene
         importer.import_scene(scene, bscene)
@@ -163,6 +385,8 @@ def build(out_dir: Path) -> list[Path]:
         bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)
         written.append(path)
         print(f"wrote {path}")
+    if "sediment_plume" in only:
+        written += [build_sediment_plume(out_dir), out_dir / "sediment_plume.npz"]
     return written
 
 
@@ -176,8 +400,10 @@ def main(argv=None) -> None:
             argv = sys.argv[1:]
     parser = argparse.ArgumentParser(description="Build the example .blend files")
     parser.add_argument("--out", type=Path, default=HERE, help="output folder (default: here)")
+    parser.add_argument("--only", nargs="+", choices=EXAMPLES, default=None,
+                        help="build only these examples (default: all)")
     args = parser.parse_args(argv)
-    build(args.out)
+    build(args.out, args.only)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,381 @@
+"""Natural waters on a Blender water object: IOPs that vary with depth or in 3-D.
+
+``Object.photic.iop_variation`` chooses
+
+- ``PROFILE``: horizontal layers (the engine's ``IOPProfile``), either a Gaussian chlorophyll
+  maximum driving the Case-1 model (``photic.profiles``; the chlorophyll-specific absorption
+  table comes from the user, none is bundled) or a CSV table of coefficients against depth;
+- ``GRID``: the object's IOPs plus a density field times unit IOPs over a box (the engine's
+  ``IOPGrid``), the density from a ``.npz`` file or, where the ``openvdb`` module exists, from
+  a Volume object's ``.vdb``.
+
+Depths count down from the water level: the mean sea level of a water surface, the top of a
+water body's mesh. Every problem is an ``ExportError`` naming the object and the property.
+"""
+from __future__ import annotations
+
+import csv
+import math
+import os
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from .export import ExportError, _obj, blender_float, per_band
+
+MAX_LAYERS = 5000
+_DENSITY_CACHE: dict = {}  # (path, mtime_ns, size) -> float32 array; the viewport re-exports often
+
+P_KIND = "Photic > Profile (photic.profile_kind)"
+P_CHL_TEXT = "Photic > Chl Absorption Text (photic.chl_absorption_text)"
+P_CHL_FILE = "Photic > Chl Absorption File (photic.chl_absorption_file)"
+P_TABLE_TEXT = "Photic > Layer Table Text (photic.profile_table_text)"
+P_TABLE_FILE = "Photic > Layer Table File (photic.profile_table_file)"
+P_GRID_FILE = "Photic > Density File (photic.grid_file)"
+P_GRID_SOURCE = "Photic > Density (photic.grid_source)"
+P_GRID_BOX = "Photic > Grid Box (photic.grid_box)"
+P_UNIT_MODEL = "Photic > Unit IOP Model (photic.unit_model)"
+
+
+def varying_iops(ex, obj, level: float, bounds):
+    """The ``IOPProfile`` or ``IOPGrid`` of a water object (``ex``: the exporter)."""
+    p = obj.original.photic
+    if p.iop_variation == "PROFILE":
+        if p.profile_kind == "CHLOROPHYLL":
+            return chlorophyll_profile(ex, obj, level)
+        return table_profile(ex, obj, level)
+    return density_grid(ex, obj, bounds)
+
+
+# -- tables ----------------------------------------------------------------------------------
+
+def _abspath(text: str) -> Path:
+    """A file property as an absolute path ('//' is the .blend's folder)."""
+    return Path(os.path.normpath(bpy.path.abspath(text.strip())))
+
+
+def _table_source(owner: str, text_block, file_text: str, p_text: str, p_file: str,
+                  what: str) -> tuple[str, str, str]:
+    """(CSV text, where it came from, the property to name) of a Text data-block or a file."""
+    if text_block is not None:
+        return text_block.as_string(), f"Text '{text_block.name}'", p_text
+    if not file_text.strip():
+        raise ExportError(owner, p_text, f"and {p_file.split(' (')[0]} are both empty: the "
+                                         f"{what} needs a CSV table")
+    path = _abspath(file_text)
+    try:
+        return path.read_text(), str(path), p_file
+    except OSError as exc:
+        raise ExportError(owner, p_file, f"cannot read {path}: {exc.strerror or exc}") from None
+
+
+def read_csv(owner: str, prop: str, text: str, where: str) -> tuple[list[str], np.ndarray]:
+    """Header and rows (float64) of a CSV table; lines starting with '#' are comments."""
+    lines = [line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")]
+    rows = list(csv.reader(lines))
+    if len(rows) < 2:
+        raise ExportError(owner, prop, f"{where} needs a header line and at least one row")
+    header = [h.strip() for h in rows[0]]
+    values = np.empty((len(rows) - 1, len(header)))
+    for i, row in enumerate(rows[1:]):
+        if len(row) != len(header):
+            raise ExportError(owner, prop, f"{where}, row {i + 1}: {len(row)} values but the "
+                                           f"header has {len(header)} columns")
+        for j, cell in enumerate(row):
+            try:
+                values[i, j] = float(cell)
+            except ValueError:
+                raise ExportError(owner, prop, f"{where}, row {i + 1}, column '{header[j]}': "
+                                               f"{cell.strip()!r} is not a number") from None
+    return header, values
+
+
+# -- depth profiles --------------------------------------------------------------------------
+
+def chlorophyll_profile(ex, obj, level: float):
+    """A Gaussian chlorophyll maximum through the Case-1 model, averaged into layers."""
+    S = ex.photic.scene
+    from photic.profiles import gaussian_chlorophyll, profile_from_function
+    p = obj.original.photic
+    owner = _obj(obj.name)
+    columns = ("a_star",) if p.case1_variant == "classic" else ("A", "E")
+    text, where, prop = _table_source(owner, p.chl_absorption_text, p.chl_absorption_file,
+                                      P_CHL_TEXT, P_CHL_FILE, "chlorophyll profile's Case-1 "
+                                      "model (chlorophyll-specific absorption)")
+    header, rows = read_csv(owner, prop, text, where)
+    # Only the columns the model reads: a table may carry both variants' columns.
+    table = {"source": where, **{h: rows[:, j].tolist() for j, h in enumerate(header)
+                                 if h in ("wavelength_nm",) + columns}}
+    values = {}
+    for name, label in (("chl_background", "Background Chl"), ("chl_peak", "Peak Chl"),
+                        ("chl_peak_depth", "Depth of Peak"), ("chl_width", "Width"),
+                        ("profile_layer_thickness", "Layer Thickness"),
+                        ("profile_max_depth", "Profile Depth")):
+        x = blender_float(getattr(p, name))
+        if not (math.isfinite(x) and x >= 0):
+            raise ExportError(owner, f"Photic > {label} (photic.{name})", f"is {x}, must be a "
+                                                                           f"finite number >= 0")
+        values[name] = x
+    thickness, depth = values["profile_layer_thickness"], values["profile_max_depth"]
+    if not (thickness > 0 and depth / thickness <= MAX_LAYERS):
+        raise ExportError(owner, "Photic > Layer Thickness (photic.profile_layer_thickness)",
+                          f"gives {depth / thickness if thickness > 0 else math.inf:.0f} layers "
+                          f"down to {depth:g} m; at most {MAX_LAYERS}")
+    if not values["chl_width"] > 0:
+        raise ExportError(owner, "Photic > Width (photic.chl_width)", "must be > 0 m")
+    tops = level - thickness * np.arange(max(1, math.ceil(depth / thickness - 1e-9)))
+    chl = gaussian_chlorophyll(values["chl_background"], values["chl_peak"],
+                               level - values["chl_peak_depth"], values["chl_width"])
+
+    def model(z):
+        return {"model": "case1", "variant": p.case1_variant, "chlorophyll": chl(z),
+                "chlorophyll_absorption": table}
+
+    try:
+        profile = profile_from_function(model, tops, [S.Band(*b) for b in ex.bands])
+    except S.SceneError as exc:
+        if "chlorophyll_absorption" in exc.field:
+            raise ExportError(owner, prop, f"{where}: field '{exc.field}': {exc.message}") from None
+        if exc.field == "chlorophyll":  # e.g. the 'new' model at C = 0 far from the peak
+            raise ExportError(owner, "Photic > Background Chl (photic.chl_background)",
+                              f"the Case-1 model's chlorophyll away from the peak: "
+                              f"{exc.message}") from None
+        raise ExportError(owner, "Photic > Case-1 Model (photic.case1_variant)",
+                          f"field '{exc.field}': {exc.message}") from None
+    components = len(profile.layers[0].scattering)
+    if components > S.MAX_COMPONENTS:  # the 'new' model: one phase function per fraction
+        raise ExportError(owner, "Photic > Case-1 Model (photic.case1_variant)",
+                          f"the '{p.case1_variant}' model's particle backscatter fraction "
+                          f"changes with band and chlorophyll: the profile has {components} "
+                          f"different phase functions, the engine holds at most "
+                          f"{S.MAX_COMPONENTS}; use the classic model, or fewer layers and "
+                          f"bands")
+    return profile
+
+
+def table_profile(ex, obj, level: float):
+    """Layers from a CSV table: depth_m, then a_<band> and b_<band> (or a and b)."""
+    S = ex.photic.scene
+    from photic.profiles import align_components
+    p = obj.original.photic
+    owner = _obj(obj.name)
+    if p.iop_source == "MODEL":
+        raise ExportError(owner, "Photic > IOPs (photic.iop_source)",
+                          "is 'IOP Model', which a layer table cannot use: choose "
+                          "'Coefficients' (the table's a and b) or 'Pure Water + Additions' "
+                          "(pure water plus the table's a and b)")
+    text, where, prop = _table_source(owner, p.profile_table_text, p.profile_table_file,
+                                      P_TABLE_TEXT, P_TABLE_FILE, "layer table")
+    header, rows = read_csv(owner, prop, text, where)
+    names = [b[0] for b in ex.bands]
+    index = {h: j for j, h in enumerate(header)}
+    if "depth_m" not in index:
+        raise ExportError(owner, prop, f"{where} has no column 'depth_m' (columns: "
+                                       f"{', '.join(header)})")
+    used = {"depth_m"}
+    per_band = {}
+    for q in ("a", "b"):
+        if q in index:
+            per_band[q] = np.repeat(rows[:, [index[q]]], len(names), axis=1)
+            used.add(q)
+            continue
+        wanted = [f"{q}_{n}" for n in names]
+        missing = [w for w in wanted if w not in index]
+        if missing:
+            raise ExportError(owner, prop, f"{where} lacks column(s) {', '.join(missing)}: give "
+                                           f"{q}_<band> for every band ({', '.join(names)} nm) "
+                                           f"or one column '{q}' for all bands")
+        per_band[q] = rows[:, [index[w] for w in wanted]]
+        used.update(wanted)
+    unknown = [h for h in header if h not in used]
+    if unknown:
+        raise ExportError(owner, prop, f"{where}: unknown column(s) {', '.join(unknown)} "
+                                       f"(expected depth_m, a_<band>, b_<band>; bands "
+                                       f"{', '.join(names)})")
+    depth = rows[:, index["depth_m"]]
+    for i, d in enumerate(depth):
+        if not (math.isfinite(d) and d >= 0):
+            raise ExportError(owner, prop, f"{where}, row {i + 1}: depth_m {d:g} must be a "
+                                           f"finite depth >= 0 m below the water level")
+        if i and not d > depth[i - 1]:
+            raise ExportError(owner, prop, f"{where}, row {i + 1}: depth_m {d:g} must be below "
+                                           f"the row before ({depth[i - 1]:g} m): one row per "
+                                           f"layer top, from the top down")
+    layers = []
+    for i in range(len(depth)):
+        for q, what in (("a", "absorption"), ("b", "scattering")):
+            for k, x in enumerate(per_band[q][i]):
+                if not (math.isfinite(x) and x >= 0):
+                    raise ExportError(owner, prop, f"{where}, row {i + 1}: {what} {q} in band "
+                                                   f"{names[k]} is {x:g}, must be a finite "
+                                                   f"number >= 0 (m^-1)")
+        layers.append(ex.coefficient_iops(owner, p, per_band["a"][i].copy(),
+                                          per_band["b"][i].copy()))
+    return S.IOPProfile(level - depth, align_components(layers))
+
+
+# -- 3-D grids -------------------------------------------------------------------------------
+
+def unit_iops(ex, obj):
+    """IOPs per unit density (no pure water unless the model names it)."""
+    S = ex.photic.scene
+    p = obj.original.photic
+    owner = _obj(obj.name)
+    if p.unit_source == "MODEL":
+        return ex.model_iops(owner, p.unit_model, P_UNIT_MODEL, defaults={"water": "none"})
+    a = per_band(owner, p.unit_absorption, p.unit_absorption_bands, "Photic > Unit Absorption",
+                 "photic.unit_absorption", ex.bands, "absorption per unit density")
+    b = per_band(owner, p.unit_scattering, p.unit_scattering_bands, "Photic > Unit Scattering",
+                 "photic.unit_scattering", ex.bands, "scattering per unit density")
+    phase = ex.phase_function(owner, p.unit_phase_function, p.unit_hg_g, p.unit_ff_backscatter,
+                              prefix="Photic > Unit ")
+    return S.IOPs(a, [S.ScatteringComponent(b, phase)])
+
+
+def density_grid(ex, obj, bounds):
+    """The base IOPs (the object's IOP source) plus density x unit IOPs over the box."""
+    S = ex.photic.scene
+    from photic.profiles import align_components
+    p = obj.original.photic
+    owner = _obj(obj.name)
+    base, unit = align_components([ex.iops(obj), unit_iops(ex, obj)])
+    if p.grid_source == "VOLUME":
+        density, lo, hi = volume_density(ex, owner, p.grid_box)
+        file = None
+    else:
+        density, file = npz_density(owner, p.grid_file)
+        lo, hi = grid_box(ex, owner, p.grid_box, bounds)
+    return S.IOPGrid(base, unit, lo, hi - lo, density, file)
+
+
+def check_density(owner: str, prop: str, density, where: str) -> np.ndarray:
+    """The density as float32 (nx, ny, nz), every voxel finite and >= 0."""
+    d = np.asarray(density)
+    if d.ndim != 3 or 0 in d.shape or d.dtype.kind not in "fiu":
+        raise ExportError(owner, prop, f"{where}: 'density' must be a non-empty 3-D array of "
+                                       f"numbers (nx, ny, nz), x first; it has shape "
+                                       f"{d.shape} and type {d.dtype}")
+    d = np.ascontiguousarray(d, dtype=np.float32)
+    bad = ~np.isfinite(d)
+    if bad.any():
+        i = tuple(int(x) for x in np.argwhere(bad)[0])
+        raise ExportError(owner, prop, f"{where}: density at voxel {list(i)} is {d[i]} "
+                                       f"({int(bad.sum())} voxel(s) not finite); densities "
+                                       f"must be finite numbers >= 0")
+    neg = d < 0
+    if neg.any():
+        i = tuple(int(x) for x in np.argwhere(neg)[0])
+        raise ExportError(owner, prop, f"{where}: density at voxel {list(i)} is {d[i]:g} "
+                                       f"({int(neg.sum())} voxel(s) negative); densities "
+                                       f"must be >= 0")
+    return d
+
+
+def npz_density(owner: str, file_text: str) -> tuple[np.ndarray, str]:
+    """The checked density of a .npz (array 'density') and its absolute path."""
+    if not file_text.strip():
+        raise ExportError(owner, P_GRID_FILE, "is empty: choose the .npz holding the array "
+                                              "'density'")
+    path = _abspath(file_text)
+    try:
+        st = path.stat()
+    except OSError:
+        raise ExportError(owner, P_GRID_FILE, f"{path} does not exist") from None
+    key = (str(path), st.st_mtime_ns, st.st_size)
+    if key not in _DENSITY_CACHE:
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                if not hasattr(z, "files"):
+                    raise ValueError("not a .npz archive (save it with "
+                                     "numpy.savez(path, density=array))")
+                if "density" not in z.files:
+                    raise ExportError(owner, P_GRID_FILE, f"{path} has no array 'density' "
+                                                          f"(it has: {', '.join(z.files) or 'none'})")
+                raw = z["density"]
+        except ExportError:
+            raise
+        except Exception as exc:  # zip, pickle and format errors alike
+            raise ExportError(owner, P_GRID_FILE, f"cannot read {path}: {exc}") from None
+        _DENSITY_CACHE.clear()  # keep one field: they can be large
+        _DENSITY_CACHE[key] = check_density(owner, P_GRID_FILE, raw, str(path))
+    return _DENSITY_CACHE[key], str(path)
+
+
+def _world_box(owner: str, box, corners) -> tuple[np.ndarray, np.ndarray]:
+    """World bounds of local ``corners`` under the box object's matrix, which must not rotate."""
+    m = np.asarray(box.matrix_world, float)
+    r = m[:3, :3]
+    off = r - np.diag(np.diag(r))
+    if np.abs(off).max() > 1e-6 * max(np.abs(r).max(), 1e-30):
+        raise ExportError(owner, P_GRID_BOX, f"Object '{box.name}' is rotated: the grid's box "
+                                             f"is aligned with the world axes (clear the "
+                                             f"rotation and size the box with its scale)")
+    world = np.asarray(corners, float) @ r.T + m[:3, 3]
+    return world.min(axis=0), world.max(axis=0)
+
+
+def grid_box(ex, owner: str, box, bounds) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) of the grid: the box object's world bounds, else the water body's."""
+    if box is None:
+        if bounds is None:
+            raise ExportError(owner, P_GRID_BOX, "is empty: a water surface has no bounds of "
+                                                 "its own; choose an Empty, Volume or mesh "
+                                                 "object whose bounds are the grid's box")
+        lo, hi = (np.asarray(b, float) for b in bounds)
+    elif box.type == "EMPTY":
+        s = float(box.empty_display_size)
+        lo, hi = _world_box(owner, box, [[x, y, z] for x in (-s, s) for y in (-s, s)
+                                         for z in (-s, s)])
+    else:
+        try:  # modifiers applied; a box hidden from the render is not in the depsgraph
+            corners = box.evaluated_get(ex.dg).bound_box
+        except (ReferenceError, RuntimeError):
+            corners = box.bound_box
+        lo, hi = _world_box(owner, box, [tuple(c) for c in corners])
+    size = hi - lo
+    if not np.all(size > 0):
+        axis = "xyz"[int(np.argmin(size))]
+        what = f"Object '{box.name}'" if box is not None else "the water body"
+        raise ExportError(owner, P_GRID_BOX, f"{what} has no extent along {axis}: the grid's "
+                                             f"box needs a size > 0 along every axis")
+    return lo, hi
+
+
+def volume_density(ex, owner: str, box):
+    """Density and world bounds from a Volume object's .vdb 'density' grid (openvdb)."""
+    if box is None or box.type != "VOLUME":
+        name = f"Object '{box.name}' is a {box.type.lower()}" if box is not None else "it is empty"
+        raise ExportError(owner, P_GRID_BOX, f"'Volume Object' reads a Volume object's grid, "
+                                             f"but {name}: choose a Volume object")
+    try:
+        import openvdb as vdb
+    except ImportError:
+        try:
+            import pyopenvdb as vdb
+        except ImportError:
+            raise ExportError(owner, P_GRID_SOURCE, f"is 'Volume Object', but this Blender's "
+                                                    f"Python has no openvdb module to read the "
+                                                    f"voxels of Volume '{box.name}' (Blender's "
+                                                    f"Python API does not give voxel values): "
+                                                    f"save the density as a .npz (array "
+                                                    f"'density') and choose 'Density File "
+                                                    f"(.npz)' with '{box.name}' as the Grid "
+                                                    f"Box") from None
+    volume = box.data
+    path = _abspath(bpy.path.abspath(volume.filepath, library=volume.library))
+    try:
+        grid = vdb.read(str(path), "density")
+        (i0, j0, k0), (i1, j1, k1) = grid.evalActiveVoxelBoundingBox()
+        raw = np.zeros((i1 - i0 + 1, j1 - j0 + 1, k1 - k0 + 1), np.float32)
+        grid.copyToArray(raw, ijk=(i0, j0, k0))
+        # Voxel centres sit at integer index coordinates: the voxels span +-0.5 around them.
+        c0 = np.array(grid.transform.indexToWorld((i0 - 0.5, j0 - 0.5, k0 - 0.5)), float)
+        c1 = np.array(grid.transform.indexToWorld((i1 + 0.5, j1 + 0.5, k1 + 0.5)), float)
+    except Exception as exc:  # openvdb raises its own types
+        raise ExportError(owner, P_GRID_BOX, f"cannot read the 'density' grid of Volume "
+                                             f"'{box.name}' from {path}: {exc}") from None
+    density = check_density(owner, P_GRID_BOX, raw, f"Volume '{box.name}' ({path})")
+    corners = [[x, y, z] for x in (c0[0], c1[0]) for y in (c0[1], c1[1]) for z in (c0[2], c1[2])]
+    lo, hi = _world_box(owner, box, corners)
+    return density, lo, hi

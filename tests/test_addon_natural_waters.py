@@ -1,0 +1,510 @@
+"""Natural waters in Blender (``bpy`` 5.0 as a module): depth profiles and 3-D grids on water
+objects, exported to the engine's ``iop_profile`` and ``iop_grid``; their errors name the
+object and the property; scene files with profiles and grids import and export back; a grid
+scene renders through the RenderEngine; the sediment-plume example builds and renders."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import bpy  # noqa: E402  (a requirement, as in test_addon.py)
+
+from photic.cli import load_addon  # noqa: E402
+from photic.scene import Scene, save_scene  # noqa: E402
+
+addon = load_addon()
+from photic_blender import export, final_render, ui  # noqa: E402
+from photic_blender.batch import ensure_registered, render_blend  # noqa: E402
+
+import photic  # noqa: E402
+import photic.render  # noqa: E402,F401  (the exporter uses photic.scene and photic.water)
+import photic.water  # noqa: E402,F401
+
+REPO = Path(__file__).resolve().parents[1]
+RGB = ["620", "550", "460"]  # the default bands, red first
+PETZOLD = {"type": "petzold"}
+
+
+@pytest.fixture
+def empty(tmp_path):
+    """An empty Blender file saved in tmp_path (so '//' paths resolve there), add-on on."""
+    ensure_registered()
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "PHOTIC"
+    scene.render.resolution_x, scene.render.resolution_y = 24, 16
+    scene.render.resolution_percentage = 100
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "scene.blend"))
+    return bpy.context.scene
+
+
+def link(obj):
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def add_mesh(name, vertices, faces):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata([list(v) for v in vertices], [], [list(f) for f in faces])
+    mesh.update()
+    return link(bpy.data.objects.new(name, mesh))
+
+
+def add_camera(location=(0.0, -6.0, 2.0), rotation=(math.radians(75), 0.0, 0.0)):
+    cam = link(bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera")))
+    cam.location, cam.rotation_euler = location, rotation
+    bpy.context.scene.camera = cam
+    return cam
+
+
+def add_sea(name="Sea"):
+    obj = add_mesh(name, [(-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0)], [(0, 1, 2, 3)])
+    obj.photic.role = "WATER_SURFACE"
+    return obj
+
+
+def add_box(name="Box", location=(0.0, 0.0, -2.0), scale=(4.0, 4.0, 2.0)):
+    """An Empty whose cube (+-1 times its scale) is the grid's box."""
+    box = link(bpy.data.objects.new(name, None))
+    box.empty_display_type = "CUBE"
+    box.location, box.scale = location, scale
+    return box
+
+
+def export_water(index=0):
+    scene, _ = export.export_scene(bpy.context.evaluated_depsgraph_get(), photic)
+    return scene, scene.to_dict()["water"][index]
+
+
+def iops_dict(a, components):
+    return {"absorption": list(a), "scattering": [{"b": list(b), "phase": ph} for b, ph in components]}
+
+
+def grid_sea(tmp_path, density=None):
+    """A sea with a grid: base a = 0.05, b = 0.1 (Petzold); unit a = (0.3, 0.2, 0.1) and
+    b = 2 with Fournier-Forand 0.02; the density from '//plume.npz' over an Empty box."""
+    add_camera()
+    sea = add_sea()
+    if density is None:
+        density = np.arange(24, dtype=np.float32).reshape(4, 3, 2) / 24
+    np.savez(tmp_path / "plume.npz", density=density)
+    p = sea.photic
+    p.absorption, p.scattering = 0.05, 0.1
+    p.iop_variation, p.grid_file, p.grid_box = "GRID", "//plume.npz", add_box()
+    p.unit_absorption_bands, p.unit_scattering = "0.3, 0.2, 0.1", 2.0
+    p.unit_phase_function, p.unit_ff_backscatter = "fournier_forand", 0.02
+    return sea
+
+
+# ------------------------------------------------------------------------------------------
+# Export: the engine's iop_grid and iop_profile
+# ------------------------------------------------------------------------------------------
+
+def test_grid_properties_export_the_engine_grid(empty, tmp_path):
+    grid_sea(tmp_path)
+    scene, water = export_water()
+    ff = {"type": "fournier_forand", "backscatter_fraction": 0.02}
+    assert water["iop_grid"] == {
+        "base": {"iops": iops_dict([0.05] * 3, [([0.1] * 3, PETZOLD), ([0.0] * 3, ff)])},
+        "unit": {"iops": iops_dict([0.3, 0.2, 0.1], [([0.0] * 3, PETZOLD), ([2.0] * 3, ff)])},
+        "origin": [-4.0, -4.0, -4.0], "size": [8.0, 8.0, 4.0],
+        "file": str(tmp_path / "plume.npz")}
+    np.testing.assert_array_equal(scene.water[0].iops.density,
+                                  np.load(tmp_path / "plume.npz")["density"])
+    # The saved scene refers to the .npz and loads back to the same grid.
+    save_scene(scene, tmp_path / "grid.json")
+    again = photic.scene.load_scene(tmp_path / "grid.json")
+    assert again.to_dict()["water"][0] == water
+
+
+def test_grid_unit_model_and_water_body_bounds(empty, tmp_path):
+    """Unit IOPs from a model (no pure water added); without a box object a water body's
+    bounds are the grid's box, and its profiles count depths from its top."""
+    from photic.iop_models import iops_from_model
+    from photic.profiles import align_components
+    add_camera()
+    v = [(-1, -1, -1), (1, -1, -1), (1, 1, -1), (-1, 1, -1), (-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]
+    f = [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)]
+    tank = add_mesh("Tank", v, f)
+    np.savez(tmp_path / "d.npz", density=np.ones((2, 2, 2)))
+    p = tank.photic
+    p.role, p.iop_source = "WATER_BODY", "PURE_WATER"
+    p.absorption, p.scattering = 0.0, 0.0
+    model = {"model": "particles", "b_ref": 1.5, "backscatter_fraction": 0.02, "a_ref": 0.2}
+    p.iop_variation, p.grid_file = "GRID", str(tmp_path / "d.npz")
+    p.unit_source, p.unit_model = "MODEL", json.dumps(model)
+    scene, water = export_water()
+    grid = scene.water[0].iops
+    assert water["iop_grid"]["origin"] == [-1.0, -1.0, -1.0] and water["iop_grid"]["size"] == [2.0, 2.0, 1.0]
+    expected = iops_from_model({**model, "water": "none"}, scene.bands)
+    _, unit = align_components([scene.water[0].iops.iops, expected])
+    np.testing.assert_array_equal(grid.unit.absorption, unit.absorption)
+    assert [c.phase.type for c in grid.iops.scattering] == ["pure_water", "fournier_forand"]
+    np.testing.assert_array_equal(grid.unit.scattering[0].b, 0.0)  # no pure water per density
+    np.testing.assert_array_equal(grid.unit.scattering[1].b, unit.scattering[1].b)
+    # A profile in a water body counts its depths from the top of the mesh.
+    tank.location.z = 3.0
+    text = bpy.data.texts.new("layers")
+    text.from_string("depth_m,a,b\n0,0.1,0.1\n0.25,0.2,0.2\n")
+    p.iop_variation, p.profile_kind, p.profile_table_text = "PROFILE", "TABLE", text
+    _, water = export_water()
+    assert water["iop_profile"]["z_top"] == [3.0, 2.75]
+
+
+def test_layer_table_profile_exports_the_engine_profile(empty):
+    """Rows of depth below the water level; per-band columns; the object's phase function;
+    'Pure Water + Additions' adds pure water to every layer."""
+    add_camera()
+    sea = add_sea()
+    sea.location.z = 0.5
+    text = bpy.data.texts.new("layers")
+    text.from_string("# depth below the sea level\n"
+                     "depth_m, a_620, a_550, a_460, b_620, b_550, b_460\n"
+                     "0, 0.3, 0.1, 0.05, 0.2, 0.2, 0.2\n"
+                     "5, 0.35, 0.15, 0.1, 0.6, 0.7, 0.8\n"
+                     "12.5, 0.4, 0.2, 0.2, 0.1, 0.1, 0.1\n")
+    p = sea.photic
+    p.iop_variation, p.profile_kind, p.profile_table_text = "PROFILE", "TABLE", text
+    p.phase_function, p.hg_g = "henyey_greenstein", 0.9
+    _, water = export_water()
+    hg = {"type": "henyey_greenstein", "g": 0.9}
+    assert water["iop_profile"] == {"z_top": [0.5, -4.5, -12.0], "layers": [
+        {"iops": iops_dict([0.3, 0.1, 0.05], [([0.2] * 3, hg)])},
+        {"iops": iops_dict([0.35, 0.15, 0.1], [([0.6, 0.7, 0.8], hg)])},
+        {"iops": iops_dict([0.4, 0.2, 0.2], [([0.1] * 3, hg)])}]}
+    # Single columns a and b for every band, pure water added, from a file.
+    p.iop_source = "PURE_WATER"
+    path = Path(bpy.path.abspath("//layers.csv"))
+    path.write_text("depth_m,a,b\n0,0.01,0.1\n3,0.02,0.3\n")
+    p.profile_table_text, p.profile_table_file = None, "//layers.csv"
+    scene, water = export_water()
+    from photic.water import pure_water_absorption, pure_water_scattering
+    bands = [(b.center_nm, b.width_nm) for b in scene.bands]
+    layer = scene.water[0].iops.layers[1]
+    np.testing.assert_allclose(layer.absorption, [0.02 + pure_water_absorption(*b) for b in bands])
+    assert [c.phase.type for c in layer.scattering] == ["pure_water", "henyey_greenstein"]
+    np.testing.assert_allclose(layer.scattering[0].b, [pure_water_scattering(*b) for b in bands])
+    assert water["iop_profile"]["z_top"] == [0.5, -2.5]
+
+
+def test_chlorophyll_profile_is_the_case1_model_through_photic_profiles(empty):
+    from photic.profiles import gaussian_chlorophyll, profile_from_function
+    add_camera()
+    sea = add_sea()
+    rows = [(400, 0.69), (440, 1.0), (500, 0.62), (550, 0.33), (600, 0.26), (650, 0.35), (700, 0.1)]
+    text = bpy.data.texts.new("chl")
+    text.from_string("wavelength_nm,a_star\n" + "".join(f"{w},{a}\n" for w, a in rows))
+    p = sea.photic
+    p.iop_variation, p.profile_kind, p.chl_absorption_text = "PROFILE", "CHLOROPHYLL", text
+    p.chl_background, p.chl_peak, p.chl_peak_depth, p.chl_width = 0.2, 1.5, 13.0, 4.0
+    p.profile_layer_thickness, p.profile_max_depth = 2.0, 30.0
+    scene, water = export_water()
+    table = {"source": "Text 'chl'", "wavelength_nm": [float(w) for w, _ in rows],
+             "a_star": [a for _, a in rows]}
+    chl = gaussian_chlorophyll(0.2, 1.5, -13.0, 4.0)
+    expected = profile_from_function(
+        lambda z: {"model": "case1", "variant": "classic", "chlorophyll": chl(z),
+                   "chlorophyll_absorption": table}, -2.0 * np.arange(15), scene.bands)
+    profile = scene.water[0].iops
+    np.testing.assert_array_equal(profile.z_top, expected.z_top)
+    for mine, ref in zip(profile.layers, expected.layers, strict=True):
+        np.testing.assert_array_equal(mine.absorption, ref.absorption)
+        assert [c.phase for c in mine.scattering] == [c.phase for c in ref.scattering]
+        for c, r in zip(mine.scattering, ref.scattering):
+            np.testing.assert_array_equal(c.b, r.b)
+    assert len(water["iop_profile"]["layers"]) == 15
+    # The layer at the maximum absorbs most in the blue.
+    a_blue = [layer.absorption[2] for layer in scene.water[0].iops.layers]
+    assert int(np.argmax(a_blue)) == 6  # the layer from 12 to 14 m
+
+
+# ------------------------------------------------------------------------------------------
+# Bad input: ExportError naming the object and the property
+# ------------------------------------------------------------------------------------------
+
+def _missing_npz(tmp_path):
+    grid_sea(tmp_path).photic.grid_file = "//nowhere.npz"
+
+
+def _no_density_key(tmp_path):
+    grid_sea(tmp_path)
+    np.savez(tmp_path / "plume.npz", rho=np.ones((2, 2, 2)))
+
+
+def _wrong_shape(tmp_path):
+    grid_sea(tmp_path, density=np.ones((4, 4), np.float32))
+
+
+def _negative(tmp_path):
+    d = np.ones((3, 3, 3), np.float32)
+    d[1, 2, 0] = -0.5
+    grid_sea(tmp_path, density=d)
+
+
+def _nan(tmp_path):
+    d = np.ones((3, 3, 3), np.float32)
+    d[2, 0, 1] = np.nan
+    grid_sea(tmp_path, density=d)
+
+
+def _not_npz(tmp_path):
+    grid_sea(tmp_path)
+    (tmp_path / "plume.npz").write_text("not numpy")
+
+
+def _rotated_box(tmp_path):
+    grid_sea(tmp_path).photic.grid_box.rotation_euler.z = 0.3
+
+
+def _ocean_without_box(tmp_path):
+    grid_sea(tmp_path).photic.grid_box = None
+
+
+def _flat_box(tmp_path):
+    grid_sea(tmp_path).photic.grid_box.scale.z = 0.0
+
+
+def _volume_without_openvdb(tmp_path):
+    sea = grid_sea(tmp_path)
+    vol = link(bpy.data.objects.new("Plume", bpy.data.volumes.new("Plume")))
+    sea.photic.grid_source, sea.photic.grid_box = "VOLUME", vol
+
+
+def _negative_unit(tmp_path):
+    grid_sea(tmp_path).photic.unit_absorption_bands = "0.1, -0.2, 0.1"
+
+
+def _bad_unit_model(tmp_path):
+    sea = grid_sea(tmp_path)
+    sea.photic.unit_source, sea.photic.unit_model = "MODEL", '{"model": "cdom", "a_ref": -1}'
+
+
+def _table_sea(text):
+    add_camera()
+    sea = add_sea()
+    block = bpy.data.texts.new("layers")
+    block.from_string(text)
+    sea.photic.iop_variation, sea.photic.profile_kind = "PROFILE", "TABLE"
+    sea.photic.profile_table_text = block
+    return sea
+
+
+def _table_missing_band(tmp_path):
+    _table_sea("depth_m,a_620,a_550,b\n0,0.1,0.1,0.2\n")
+
+
+def _table_depth_order(tmp_path):
+    _table_sea("depth_m,a,b\n0,0.1,0.2\n5,0.1,0.2\n3,0.1,0.2\n")
+
+
+def _table_nan(tmp_path):
+    _table_sea("depth_m,a,b\n0,0.1,0.2\n5,nan,0.2\n")
+
+
+def _table_with_model(tmp_path):
+    _table_sea("depth_m,a,b\n0,0.1,0.2\n").photic.iop_source = "MODEL"
+
+
+def _chl_without_table(tmp_path):
+    add_camera()
+    sea = add_sea()
+    sea.photic.iop_variation, sea.photic.profile_kind = "PROFILE", "CHLOROPHYLL"
+
+
+def _chl_table_column(tmp_path):
+    add_camera()
+    sea = add_sea()
+    text = bpy.data.texts.new("chl")
+    text.from_string("wavelength_nm,a\n400,0.7\n700,0.1\n")
+    sea.photic.iop_variation, sea.photic.profile_kind = "PROFILE", "CHLOROPHYLL"
+    sea.photic.chl_absorption_text = text
+
+
+def _chl_new_variant(tmp_path):
+    add_camera()
+    sea = add_sea()
+    text = bpy.data.texts.new("chl")
+    text.from_string("wavelength_nm,A,E\n400,0.03,0.7\n440,0.06,0.68\n560,0.01,0.8\n700,0.005,0.9\n")
+    sea.photic.iop_variation, sea.photic.profile_kind = "PROFILE", "CHLOROPHYLL"
+    sea.photic.chl_absorption_text, sea.photic.case1_variant = text, "new"
+
+
+BAD = [
+    (_missing_npz, ["Object 'Sea'", "Density File (photic.grid_file)", "nowhere.npz", "does not exist"]),
+    (_no_density_key, ["Density File", "no array 'density'", "rho"]),
+    (_wrong_shape, ["Density File", "3-D", "(4, 4)"]),
+    (_negative, ["Density File", "voxel [1, 2, 0]", "-0.5", ">= 0"]),
+    (_nan, ["Density File", "voxel [2, 0, 1]", "nan", "finite"]),
+    (_not_npz, ["Density File", "cannot read"]),
+    (_rotated_box, ["Grid Box (photic.grid_box)", "Object 'Box' is rotated"]),
+    (_ocean_without_box, ["Grid Box", "is empty", "water surface"]),
+    (_flat_box, ["Grid Box", "no extent along z"]),
+    (_volume_without_openvdb, ["Density (photic.grid_source)", "openvdb", "Volume 'Plume'", ".npz"]),
+    (_negative_unit, ["Unit Absorption per Band (photic.unit_absorption_bands)", "band 2", ">= 0"]),
+    (_bad_unit_model, ["Unit IOP Model (photic.unit_model)", "a_ref"]),
+    (_table_missing_band, ["Layer Table Text (photic.profile_table_text)", "a_460", "one column 'a'"]),
+    (_table_depth_order, ["Layer Table Text", "row 3", "below the row before"]),
+    (_table_nan, ["Layer Table Text", "row 2", "band 620", "nan"]),
+    (_table_with_model, ["IOPs (photic.iop_source)", "layer table"]),
+    (_chl_without_table, ["Chl Absorption Text (photic.chl_absorption_text)", "both empty"]),
+    (_chl_table_column, ["Chl Absorption Text", "a_star"]),
+    (_chl_new_variant, ["Case-1 Model (photic.case1_variant)", "at most 16", "classic"]),
+]
+
+
+@pytest.mark.parametrize("build, expected", BAD, ids=[b.__name__[1:] for b, _ in BAD])
+def test_bad_natural_water_input_names_object_and_property(empty, tmp_path, build, expected):
+    build(tmp_path)
+    with pytest.raises(export.ExportError) as info:
+        export.export_scene(bpy.context.evaluated_depsgraph_get(), photic)
+    message = str(info.value)
+    assert message.startswith("Object '"), message
+    for text in expected:
+        assert text in message, message
+
+
+# ------------------------------------------------------------------------------------------
+# Import, panels, rendering
+# ------------------------------------------------------------------------------------------
+
+def test_profile_and_grid_scenes_import_and_export_back(empty, tmp_path):
+    """File > Import of a scene with a profile and one with a grid: the objects export back
+    to the same water (the grid's box becomes an Empty; values with exact float32 forms)."""
+    np.savez(tmp_path / "g.npz", density=np.random.default_rng(1).random((5, 4, 3)))
+    hg = {"type": "henyey_greenstein", "g": 0.8}
+    base = {"name": "sea", "type": "ocean", "surface": {"kind": "flat", "z": 0.0}}
+    waters = {
+        "profile": {**base, "iop_profile": {"z_top": [0.0, -2.5, -10.0], "layers": [
+            {"iops": {"absorption": [0.3, 0.1, 0.05], "b": [0.2, 0.25, 0.3], "phase": hg}},
+            {"iops": {"absorption": [0.4, 0.2, 0.1], "b": [1.0, 1.1, 1.2], "phase": hg}},
+            {"iops": {"absorption": [0.35, 0.1, 0.02], "b": [0.1, 0.1, 0.1], "phase": hg}}]}},
+        "grid": {**base, "iop_grid": {
+            "base": {"iops": {"absorption": [0.3, 0.06, 0.02], "b": [0.05, 0.05, 0.05], "phase": PETZOLD}},
+            "unit": {"iops": {"absorption": [0.1, 0.2, 0.4], "b": [2.0, 2.0, 2.0], "phase": PETZOLD}},
+            "origin": [-8.0, -4.0, -2.0], "size": [16.0, 8.0, 2.0], "file": str(tmp_path / "g.npz")}}}
+    for kind, water in waters.items():
+        bpy.ops.wm.read_homefile(use_empty=True)
+        d = {"photic_scene": 1, "name": kind, "water": [water], "bands": [
+                {"name": "620", "center_nm": 620.0, "width_nm": 80.0},
+                {"name": "550", "center_nm": 550.0, "width_nm": 60.0},
+                {"name": "460", "center_nm": 460.0, "width_nm": 80.0}],
+             "sky": {"type": "uniform", "radiance": [0.1, 0.1, 0.1]},
+             "cameras": [{"name": "cam", "type": "perspective", "position": [0, -5, 3], "look_at": [0, 0, 0], "fov_deg": 40,
+                          "resolution": [8, 8]}]}
+        src = tmp_path / f"{kind}.json"
+        src.write_text(json.dumps(d))
+        assert bpy.ops.photic.import_scene(filepath=str(src)) == {"FINISHED"}
+        _, exported = export_water()
+        assert exported == photic.scene.load_scene(src).to_dict()["water"][0], kind
+
+
+def test_refused_import_says_why(empty, tmp_path):
+    d = {"photic_scene": 1, "name": "inline", "sky": {"type": "uniform", "radiance": [0.1]},
+         "bands": [{"name": "550", "center_nm": 550, "width_nm": 10}],
+         "cameras": [{"name": "cam", "type": "perspective", "position": [0, -5, 3], "look_at": [0, 0, 0]}],
+         "water": [{"name": "sea", "type": "ocean", "surface": {"kind": "flat"}, "iop_grid": {
+             "base": {"iops": {"absorption": [0.1]}}, "unit": {"iops": {"absorption": [0.1]}},
+             "origin": [0, 0, -1], "size": [1, 1, 1], "density": [[[1.0]]]}}]}
+    from photic_blender.importer import import_scene
+    with pytest.raises(ValueError, match="water 'sea'.*inline.*numpy.savez"):
+        import_scene(Scene.from_dict(d), empty)
+
+
+class FakeLayout:
+    def __init__(self, shown):
+        self.shown, self.use_property_split, self.active, self.alert = shown, False, True, False
+
+    def prop(self, data, name, **kw):
+        assert name in data.bl_rna.properties, (data, name)
+        self.shown.append(name)
+
+    def column(self, **kw):
+        return FakeLayout(self.shown)
+
+    row = box = column
+
+    def label(self, **kw):
+        pass
+
+
+def test_iop_variation_panel_draws_every_property_it_names(empty):
+    from types import SimpleNamespace
+    sea = add_sea()
+    p = sea.photic
+    shown = []
+    context = SimpleNamespace(engine="PHOTIC", scene=empty, object=sea)
+    cases = [("PROFILE", "CHLOROPHYLL", "VALUES", "petzold"), ("PROFILE", "TABLE", "VALUES", "petzold"),
+             ("GRID", "CHLOROPHYLL", "MODEL", "petzold"), ("GRID", "TABLE", "VALUES", "henyey_greenstein"),
+             ("GRID", "TABLE", "VALUES", "fournier_forand"), ("NONE", "TABLE", "VALUES", "petzold")]
+    for variation, kind, unit, phase in cases:
+        p.iop_variation, p.profile_kind, p.unit_source, p.unit_phase_function = variation, kind, unit, phase
+        assert ui.PHOTIC_PT_iop_variation.poll(context)
+        ui.PHOTIC_PT_iop_variation.draw(SimpleNamespace(layout=FakeLayout(shown)), context)
+    for name in ("chl_peak", "chl_absorption_file", "profile_table_text", "grid_file", "grid_box",
+                 "unit_model", "unit_hg_g", "unit_ff_backscatter"):
+        assert name in shown, name
+    p.role = "RADIOMETER"
+    assert not ui.PHOTIC_PT_iop_variation.poll(context)
+
+
+def test_grid_scene_renders_through_the_render_engine(empty, tmp_path):
+    """A turbid slab under part of the sea: F12 renders it, and a radiometer looking down on
+    the slab sees more upwelling light than one over clear water."""
+    d = np.zeros((8, 8, 4), np.float32)
+    d[4:] = 1.0  # x > 0: the turbid half of the box
+    sea = grid_sea(tmp_path, density=d)
+    sea.photic.unit_absorption_bands, sea.photic.unit_scattering = "0.05", 5.0
+    light = bpy.data.lights.new("Sun", "SUN")
+    sun = link(bpy.data.objects.new("Sun", light))
+    sun.rotation_euler = (math.radians(30), 0.0, 0.0)
+    for name, x in (("Lu_turbid", 2.0), ("Lu_clear", -2.0)):
+        r = link(bpy.data.objects.new(name, None))
+        r.location = (x, 0.0, 0.5)
+        r.photic.role, r.photic.quantity = "RADIOMETER", "radiance"
+    p = empty.photic
+    p.samples, p.radiometer_samples = 2, 4000
+    empty.render.filepath = str(tmp_path / "frame_")
+    final_render.LAST_RENDER.clear()
+    bpy.ops.render.render()
+    summary = final_render.LAST_RENDER
+    assert not summary.get("error"), summary
+    rows = {r["name"]: r for r in final_render.LAST_RADIOMETERS[empty.name]["rows"]}
+    turbid, clear = (np.array(rows[n]["value"]) for n in ("Lu_turbid", "Lu_clear"))
+    assert np.all(np.isfinite(turbid)) and np.all(turbid > 3 * clear), (turbid, clear)
+
+
+def test_sediment_plume_example_builds_and_renders(tmp_path):
+    """The example's builder in bpy: the .blend with its .npz beside it renders through
+    'photic blend' (tiny image, few samples) and its tables give Rrs for both radiometers."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("make_examples", REPO / "example_blends" / "make_examples.py")
+    make_examples = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(make_examples)
+    path = make_examples.build_sediment_plume(tmp_path, grid_shape=(32, 32, 8))
+    assert path.is_file() and (tmp_path / "sediment_plume.npz").is_file()
+    summary = render_blend(path, out_dir=tmp_path / "out", samples=1, radiometer_samples=3000,
+                           resolution_percentage=10)
+    table = next(Path(t) for t in summary["tables"] if t.endswith("_radiometers.json"))
+    rrs = make_examples.plume_rrs(table)
+    assert set(rrs) == {"plume", "clear"}
+    for d in rrs.values():
+        assert np.all(np.isfinite(d.value)) and d.quantity == "Rrs"
+
+
+def test_committed_sediment_plume_blend_renders(tmp_path):
+    """The saved example (Blender 3.4's file, its .npz beside it) renders here; Rrs is higher
+    above the plume than above clear water in the green."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("make_examples", REPO / "example_blends" / "make_examples.py")
+    make_examples = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(make_examples)
+    summary = render_blend(REPO / "example_blends" / "sediment_plume.blend", out_dir=tmp_path,
+                           samples=1, radiometer_samples=4000, resolution_percentage=10)
+    table = next(Path(t) for t in summary["tables"] if t.endswith("_radiometers.json"))
+    rrs = make_examples.plume_rrs(table)
+    green = [i for i, (c, _) in enumerate(make_examples.PLUME_BANDS) if 530 < c < 570]
+    assert np.all(rrs["plume"].value[green] > 3 * rrs["clear"].value[green])
