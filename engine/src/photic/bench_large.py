@@ -241,7 +241,12 @@ def rss_mb() -> float:
 
 
 def peak_rss_mb() -> float:
-    """Peak resident memory of this process so far (MiB; ru_maxrss)."""
+    """Peak resident memory of this process (MiB): on Linux the high-water mark VmHWM (since
+    the last PhasePeaks reset), as ru_maxrss there survives execve and so would report the
+    peak of the process that started this one (a large pytest, say); ru_maxrss elsewhere."""
+    hwm = PhasePeaks._hwm()
+    if hwm is not None:
+        return hwm
     r = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return r / 2**20 if sys.platform == "darwin" else _mb(r)
 
