@@ -13,7 +13,7 @@ with the others, and the median is quoted with the ratio to the homogeneous rend
 the same run (the machine is shared: ratios are what to compare). Times include the scene's
 setup (validation, copying and scanning the densities).
 
-    .venv/bin/python scripts/grid_cost.py [--n 256] [--repeat 3] [--json out.json]
+    .venv/bin/python scripts/grid_cost.py [--n 256] [--repeat 3] [--what both|image] [--json out.json]
 """
 from __future__ import annotations
 
@@ -61,7 +61,7 @@ def dense(n: int, seed: int = 6) -> np.ndarray:
     return np.random.default_rng(seed).random((n, n, n), dtype=np.float32)
 
 
-def scene(integrator: str, density_file: Path | None) -> Scene:
+def scene(integrator: str, density_file: Path | None, what: str = "both") -> Scene:
     water = {"name": "sea", "type": "ocean", "ior": 1.34, "surface": {"kind": "flat", "z": 0.0}}
     if density_file is None:
         water["iops"] = BASE
@@ -72,12 +72,16 @@ def scene(integrator: str, density_file: Path | None) -> Scene:
             for z in (1.0, 3.0, 6.0) for q in ("Ed", "Eu", "Eo")]
     cam = {"name": "cam", "type": "perspective", "position": [0.0, -30.0, 20.0], "look_at": [0.0, 0.0, -10.0],
            "fov_deg": 60.0, "resolution": [64, 48]}
+    if what == "image":   # an image only, larger: 160 x 120 at 64 spp
+        rads, cam["resolution"] = [], [160, 120]
     d = {"photic_scene": 1, "name": "grid cost", "water": [water],
          "sun": {"zenith_deg": 30.0, "azimuth_deg": 60.0, "irradiance": [1.0]},
          "sky": {"type": "uniform", "radiance": [0.3]},
          "cameras": [cam], "radiometers": rads,
          "settings": {"integrator": integrator, "seed": 3, "samples": 16,
                       "radiometer_samples": 100_000, "forward_cone_deg": 0.0}}
+    if what == "image":
+        d["settings"]["samples"] = 64
     return Scene.from_dict(d, base_dir=density_file.parent if density_file else None)
 
 
@@ -86,6 +90,9 @@ def main(argv=None) -> int:
     ap.add_argument("--n", type=int, default=256, help="voxels per axis")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--integrators", default="hybrid,path")
+    ap.add_argument("--what", choices=["both", "image"], default="both",
+                    help="both: the camera and the 9 radiometers (in and near the plume); "
+                         "image: a 160 x 120 camera at 64 spp alone")
     ap.add_argument("--json", help="write the times here")
     args = ap.parse_args(argv)
     tmp = Path(tempfile.mkdtemp(prefix="photic_grid_cost_"))
@@ -100,11 +107,12 @@ def main(argv=None) -> int:
         for integ in args.integrators.split(","):
             for name, rho in fields.items():
                 t0 = time.perf_counter()
-                render(scene(integ, rho))
+                render(scene(integ, rho, args.what))
                 times.setdefault((integ, name), []).append(time.perf_counter() - t0)
         print(f"repeat {rep + 1}/{args.repeat} done", flush=True)
-    print(f"\n{args.n}^3 grid, 64 x 48 camera at 16 spp + 9 radiometers at 1e5 samples; "
-          f"median of {args.repeat}")
+    setup = ("64 x 48 camera at 16 spp + 9 radiometers at 1e5 samples" if args.what == "both"
+             else "160 x 120 camera at 64 spp")
+    print(f"\n{args.n}^3 grid, {setup}; median of {args.repeat}")
     print(f"{'integrator':<10} {'water':<14} {'non-zero':>9} {'median s':>9} {'x homog.':>9}")
     rows = []
     for integ in args.integrators.split(","):
@@ -116,7 +124,7 @@ def main(argv=None) -> int:
                          "ratio": t / ref, "times_s": times[(integ, name)]})
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"n": args.n, "repeat": args.repeat, "rows": rows}, f, indent=1)
+            json.dump({"n": args.n, "repeat": args.repeat, "what": args.what, "rows": rows}, f, indent=1)
     return 0
 
 
