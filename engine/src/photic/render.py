@@ -243,6 +243,20 @@ def radiometer_result(r, medium: str, s: np.ndarray, s2: np.ndarray, done: int,
                             mean[:, 0, :], err[:, 0, :], done, bins, comps)
 
 
+def add_pass(sums, batch, g, s, s2, n: int) -> None:
+    """Adds one pass of n samples (sums s, s2) to a sensor's [sum, sum of squares] in band
+    group g and, when ``batch`` ([sum, sum of squares, count] of the pass means) is given, its
+    mean to the batch means. Renderer.run and the distributed merge both add passes here, in
+    the same order, so that their results agree bit for bit."""
+    if batch is not None:
+        pm = s / (n / s.shape[0])
+        batch[0][..., g] += pm
+        batch[1][..., g] += pm * pm
+        batch[2][g] += 1
+    sums[0][..., g] += s
+    sums[1][..., g] += s2
+
+
 class Renderer:
     """Renders a validated scene progressively.
 
@@ -349,13 +363,7 @@ class Renderer:
                 if core.cancelled:
                     return False
                 with self._lock:
-                    if batch is not None:
-                        pm = s / (n / s.shape[0])
-                        batch[0][..., g] += pm
-                        batch[1][..., g] += pm * pm
-                        batch[2][g] += 1
-                    sums[0][..., g] += s
-                    sums[1][..., g] += s2
+                    add_pass(sums, batch, g, s, s2, n)
                     if gi == 0:
                         done[done_key] = start + n
                     add_counts(c)

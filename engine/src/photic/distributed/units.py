@@ -30,8 +30,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..compile import band_groups, compile_scene
-from ..render import (COMPONENTS, ImageResult, RenderResult, _mean_stderr, build_pass_beams,
-                      camera_passes, image_result, radiometer_passes, radiometer_result)
+from ..render import (COMPONENTS, ImageResult, RenderResult, _mean_stderr, add_pass,
+                      build_pass_beams, camera_passes, image_result, radiometer_passes,
+                      radiometer_result)
 from .job import Item, Job
 
 NC = len(COMPONENTS) + 1      # the core's layout: total, then the components
@@ -273,14 +274,8 @@ class ItemMerger:
                 self.rad_samples[ri] = 0
             sums, batch = self.rads[ri], self.rad_batch[ri]
             for k, (_, n) in enumerate(meta["passes"]):
-                s, s2 = ps[k], ps2[k]
-                if hybrid:  # batch means of the passes, as Renderer.run keeps them
-                    pm = s / (n / s.shape[0])
-                    batch[0][..., g] += pm
-                    batch[1][..., g] += pm * pm
-                    batch[2][g] += 1
-                sums[0][..., g] += s
-                sums[1][..., g] += s2
+                # with batch means of the passes for the hybrid integrator, as Renderer.run
+                add_pass(sums, batch if hybrid else None, g, ps[k], ps2[k], n)
                 if unit.group == 0:
                     self.rad_samples[ri] += n
             self.media[ri] = int(meta["medium"])
