@@ -52,11 +52,14 @@ def export_frames(path, frames=None) -> list:
 
 def render_blend(path, frame: int | None = None, out_dir=None, samples: int | None = None,
                  radiometer_samples: int | None = None, seed: int | None = None,
-                 threads: int | None = None, resolution_percentage: int | None = None) -> dict:
+                 threads: int | None = None, resolution_percentage: int | None = None,
+                 progress=None) -> dict:
     """Render one frame of a .blend file with Photic.
 
-    Returns the render summary (``final_render.LAST_RENDER``) with ``"image"``: the EXR path.
-    Raises RuntimeError with the add-on's message when the render failed.
+    ``progress(fraction, text)``, when given, is called as the render goes on (a background
+    Blender shows nothing). Returns the render summary (``final_render.LAST_RENDER``) with
+    ``"image"``: the EXR path. Raises RuntimeError with the add-on's message when the render
+    failed.
     """
     path = Path(path).resolve()
     if not path.is_file():
@@ -85,7 +88,11 @@ def render_blend(path, frame: int | None = None, out_dir=None, samples: int | No
     scene.render.use_file_extension = True
     scene.render.filepath = str(out_dir / f"{path.stem}_####")
     final_render.LAST_RENDER.clear()
-    bpy.ops.render.render()
+    final_render.PROGRESS_HOOK = progress
+    try:
+        bpy.ops.render.render()
+    finally:
+        final_render.PROGRESS_HOOK = None
     summary = dict(final_render.LAST_RENDER)
     if not summary or summary.get("error"):
         raise RuntimeError(summary.get("error") or "the render did not run (is the scene's "

@@ -42,6 +42,10 @@ LAST_RENDER: dict = {}
 #: .blend inputs of ``photic batch`` jobs: see ``batch.export_frames``).
 EXPORT_HOOK = None
 
+#: When set, called as PROGRESS_HOOK(fraction, text) with the render's progress and status
+#: (a background Blender shows neither): ``photic blend`` draws its progress bar with it.
+PROGRESS_HOOK = None
+
 
 def set_rect(render_pass, image: np.ndarray) -> None:
     """Write an (H, W, C) top-row-first image into a render pass (bottom row first).
@@ -95,6 +99,7 @@ class FinalRender:
         self.depsgraph = depsgraph
         self.summary = {"updates": 0, "update_times": [], "cancelled": False,
                         "cancel_latency_s": None, "tables": [], "error": None}
+        self._fraction = 0.0
 
     # -- reporting ---------------------------------------------------------------------------
     def fail(self, message: str) -> None:
@@ -106,6 +111,12 @@ class FinalRender:
 
     def stats(self, text: str) -> None:
         self.engine.update_stats("", f"Photic | {text}")
+        if PROGRESS_HOOK is not None:
+            PROGRESS_HOOK(self._fraction, text)
+
+    def progress(self, fraction: float) -> None:
+        self._fraction = fraction
+        self.engine.update_progress(fraction)
 
     # -- the render --------------------------------------------------------------------------
     def run(self) -> dict:
@@ -130,7 +141,7 @@ class FinalRender:
         self.stats("exporting scene")
 
         def export_progress(fraction, text):
-            engine.update_progress(0.02 * fraction)
+            self.progress(0.02 * fraction)
             self.stats(text)
 
         try:
@@ -215,7 +226,7 @@ class FinalRender:
         self.summary["samples"] = final.images[camera.name].samples if camera else 0
         self.summary["stats"] = final.stats
         self._radiometers(photic, final, bscene)
-        engine.update_progress(1.0)
+        self.progress(1.0)
         self.stats(f"{'cancelled, ' if final.cancelled else ''}{self.summary['samples']} "
                    f"samples in {final.stats['time_s']:.1f} s, "
                    f"{final.stats['segments_per_s'] / 1e6:.2f} M rays/s")
@@ -292,7 +303,7 @@ class FinalRender:
                     self.summary["update_times"].append(now - t0)
                 if now - last_stats >= UPDATE_INTERVAL_S:
                     last_stats = now
-                    engine.update_progress(0.02 + 0.98 * done[0] / max(1, total))
+                    self.progress(0.02 + 0.98 * done[0] / max(1, total))
                     self.stats(f"Dask {address}: {done[0]}/{total} units")
         finally:
             if thread.is_alive():
@@ -322,7 +333,7 @@ class FinalRender:
         self.summary["samples"] = final.images[camera.name].samples if camera else 0
         self.summary["stats"] = final.stats
         self._radiometers(photic, final, bscene)
-        engine.update_progress(1.0)
+        self.progress(1.0)
         self.stats(f"{self.summary['samples']} samples, {total} units on Dask {address} in "
                    f"{time.perf_counter() - t0:.1f} s")
 
@@ -338,7 +349,7 @@ class FinalRender:
             set_rect(p, pixels)
 
     def _report_progress(self, renderer, snap, now) -> None:
-        self.engine.update_progress(0.02 + 0.98 * renderer.progress)
+        self.progress(0.02 + 0.98 * renderer.progress)
         elapsed = now - (renderer.t_start or now)
         rays = renderer.counters["segments"] / elapsed if elapsed > 0 else 0.0
         text = f"{rays / 1e6:.2f} M rays/s"

@@ -502,8 +502,13 @@ def test_committed_sediment_plume_blend_renders(tmp_path):
     spec = importlib.util.spec_from_file_location("make_examples", REPO / "example_blends" / "make_examples.py")
     make_examples = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(make_examples)
+    seen = []  # photic blend's progress bar is fed this way
     summary = render_blend(REPO / "example_blends" / "sediment_plume.blend", out_dir=tmp_path,
-                           samples=1, radiometer_samples=4000, resolution_percentage=10)
+                           samples=1, radiometer_samples=4000, resolution_percentage=10,
+                           progress=lambda f, text: seen.append((f, text)))
+    fractions = [f for f, _ in seen]
+    assert len(seen) > 3 and fractions == sorted(fractions) and fractions[-1] == 1.0, seen
+    assert any("samples" in text or "sample" in text for _, text in seen)
     table = next(Path(t) for t in summary["tables"] if t.endswith("_radiometers.json"))
     rrs = make_examples.plume_rrs(table)
     green = [i for i, (c, _) in enumerate(make_examples.PLUME_BANDS) if 530 < c < 570]

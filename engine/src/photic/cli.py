@@ -233,9 +233,25 @@ def cmd_blend(args) -> int:
         load_addon()
         from importlib import import_module
         batch = import_module("photic_blender.batch")
-        summary = batch.render_blend(args.file, frame=args.frame, out_dir=args.out,
-                                     samples=args.samples, radiometer_samples=args.radiometer_samples,
-                                     seed=args.seed, threads=args.threads)
+        bar, progress = None, None
+        if not args.quiet:
+            from tqdm import tqdm
+            bar = tqdm(total=1000, desc=f"rendering {Path(args.file).name}", unit="‰",
+                       file=sys.stderr, bar_format="{desc}: {percentage:3.0f}%|{bar}| "
+                                                   "{elapsed}<{remaining} {postfix}")
+
+            def progress(fraction, text):
+                bar.n = min(1000, int(round(1000 * fraction)))
+                bar.set_postfix_str(text, refresh=False)
+                bar.refresh()
+        try:
+            summary = batch.render_blend(args.file, frame=args.frame, out_dir=args.out,
+                                         samples=args.samples,
+                                         radiometer_samples=args.radiometer_samples,
+                                         seed=args.seed, threads=args.threads, progress=progress)
+        finally:
+            if bar is not None:
+                bar.close()
     except (FileNotFoundError, RuntimeError) as exc:
         print(f"photic blend: {exc}", file=sys.stderr)
         return 2
@@ -386,6 +402,7 @@ def build_parser() -> argparse.ArgumentParser:
     bl.add_argument("--radiometer-samples", type=int, default=None, help="samples per radiometer (default: the file's)")
     bl.add_argument("--seed", type=int, default=None, help="random seed (default: the file's)")
     bl.add_argument("--threads", type=int, default=None, help="threads, 0 = all cores (default: the file's)")
+    bl.add_argument("--quiet", action="store_true", help="no progress bar")
     bl.set_defaults(func=cmd_blend)
     dv = sub.add_parser("derive", help="Kd, R, Rrs and mean cosines from a radiometer table",
                         description="Reads TABLE (<scene>_radiometers.json, written by 'photic render') "
