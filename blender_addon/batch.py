@@ -22,10 +22,9 @@ def ensure_registered() -> None:
         sys.modules[__package__].register()
 
 
-def export_frames(path, frames=None) -> list:
-    """[(frame, photic Scene)] of a .blend file, each exported through the Photic render engine
-    exactly as a final render of that frame would be (render depsgraph, resolution), without
-    rendering it: the scenes of a ``photic batch`` job's .blend input."""
+def open_blend(path) -> tuple[Path, "bpy.types.Scene"]:
+    """Open a .blend file with the add-on registered; (its absolute path, its scene set to
+    render with Photic)."""
     path = Path(path).resolve()
     if not path.is_file():
         raise FileNotFoundError(f"no such .blend file: {path}")
@@ -33,6 +32,14 @@ def export_frames(path, frames=None) -> list:
     bpy.ops.wm.open_mainfile(filepath=str(path))
     scene = bpy.context.scene
     scene.render.engine = "PHOTIC"
+    return path, scene
+
+
+def export_frames(path, frames=None) -> list:
+    """[(frame, photic Scene)] of a .blend file, each exported through the Photic render engine
+    exactly as a final render of that frame would be (render depsgraph, resolution), without
+    rendering it: the scenes of a ``photic batch`` job's .blend input."""
+    path, scene = open_blend(path)
     out = []
     for frame in frames or [scene.frame_current]:
         scene.frame_set(int(frame))
@@ -61,13 +68,7 @@ def render_blend(path, frame: int | None = None, out_dir=None, samples: int | No
     ``"image"``: the EXR path. Raises RuntimeError with the add-on's message when the render
     failed.
     """
-    path = Path(path).resolve()
-    if not path.is_file():
-        raise FileNotFoundError(f"no such .blend file: {path}")
-    ensure_registered()
-    bpy.ops.wm.open_mainfile(filepath=str(path))
-    scene = bpy.context.scene
-    scene.render.engine = "PHOTIC"
+    path, scene = open_blend(path)
     p = scene.photic
     for name, value in (("samples", samples), ("radiometer_samples", radiometer_samples),
                         ("seed", seed), ("threads", threads)):

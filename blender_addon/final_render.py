@@ -161,15 +161,15 @@ class FinalRender:
         if EXPORT_HOOK is not None:
             EXPORT_HOOK(scene)
             return
-        address = (getattr(bscene.photic, "dask_scheduler", "") or "").strip()
-        if address:
-            self._run_distributed(photic, scene, bscene, address, info, t0)
-            return
         self.summary["export_s"] = info.time_s
         self.summary["triangles"] = info.triangles
         bands = [(b.name, b.center_nm, b.width_nm) for b in scene.bands]
         camera = scene.cameras[0] if scene.cameras else None
         width, height = camera.resolution if camera else (1, 1)
+        address = (getattr(bscene.photic, "dask_scheduler", "") or "").strip()
+        if address:
+            self._run_distributed(photic, scene, bscene, address, bands, camera, t0)
+            return
 
         try:
             renderer = photic.render.Renderer(scene)
@@ -185,40 +185,24 @@ class FinalRender:
                 holder["error"] = exc
                 traceback.print_exc()
 
-        thread = threading.Thread(target=work, name="photic-render", daemon=True)
-        result = engine.begin_result(0, 0, width, height)
-        cancel_at = None
-        try:
-            thread.start()
-            last_update, last_samples = 0.0, 0
-            while thread.is_alive():
-                thread.join(POLL_S)
-                now = time.perf_counter()
-                if cancel_at is None and engine.test_break():
-                    cancel_at = now
-                    renderer.cancel()
-                    self.stats("cancelling")
-                if cancel_at is None and now - last_update >= UPDATE_INTERVAL_S:
-                    snap = renderer.snapshot(camera.name) if camera is not None else None
-                    if snap is not None and snap.samples != last_samples:
-                        last_samples = snap.samples
-                        self._write(result, snap, bands)
-                        engine.update_result(result)
-                        self.summary["updates"] += 1
-                        self.summary["update_times"].append(now - t0)
-                    last_update = now
-                    self._report_progress(renderer, snap, now)
-        finally:
-            if thread.is_alive():  # an exception in the loop: stop the worker first
-                renderer.cancel()
-            thread.join()
-            if cancel_at is not None:
-                self.summary["cancelled"] = True
-                self.summary["cancel_latency_s"] = time.perf_counter() - cancel_at
+        last = {"update": 0.0, "samples": 0}
+
+        def tick(result, now):
+            if now - last["update"] < UPDATE_INTERVAL_S:
+                return
+            snap = renderer.snapshot(camera.name) if camera is not None else None
+            if snap is not None and snap.samples != last["samples"]:
+                last["samples"] = snap.samples
+                self._show(result, snap, bands, now - t0)
+            last["update"] = now
+            self._report_progress(renderer, snap, now)
+
+        def final_image():
             final = holder.get("result")
-            if final is not None and camera is not None and camera.name in final.images:
-                self._write(result, final.images[camera.name], bands)
-            engine.end_result(result)
+            return (final.images[camera.name] if final is not None and camera is not None
+                    and camera.name in final.images else None)
+
+        self._poll(work, "photic-render", renderer.cancel, tick, final_image, (width, height), bands)
         if "error" in holder:
             self.fail(f"render failed: {holder['error']}")
             return
@@ -231,18 +215,13 @@ class FinalRender:
                    f"samples in {final.stats['time_s']:.1f} s, "
                    f"{final.stats['segments_per_s'] / 1e6:.2f} M rays/s")
 
-    def _run_distributed(self, photic, scene, bscene, address, info, t0) -> None:
+    def _run_distributed(self, photic, scene, bscene, address, bands, camera, t0) -> None:
         """The render as work units on the Dask scheduler at ``address``: the merged camera
         streams into the render view as units come back; the final image and radiometers are
         the exact merge, the same numbers as a render on this computer."""
         from photic.distributed import BatchStopped, CameraPreview, run_job, scene_job
         from photic.distributed.units import plan_round
 
-        engine = self.engine
-        self.summary["export_s"] = info.time_s
-        self.summary["triangles"] = info.triangles
-        bands = [(b.name, b.center_nm, b.width_nm) for b in scene.bands]
-        camera = scene.cameras[0] if scene.cameras else None
         width, height = camera.resolution if camera else (1, 1)
         try:
             job = scene_job(scene, f"{bscene.name}_{bscene.frame_current:04d}")
@@ -278,46 +257,27 @@ class FinalRender:
                 traceback.print_exc()
 
         self.stats(f"connecting to the Dask scheduler {address}")
-        thread = threading.Thread(target=work, name="photic-dask", daemon=True)
-        result = engine.begin_result(0, 0, width, height)
-        cancel_at = None
-        try:
-            thread.start()
-            last_write, last_stats, last_version = -UPDATE_INTERVAL_S, 0.0, 0
-            while thread.is_alive():
-                thread.join(POLL_S)
-                now = time.perf_counter()
-                if cancel_at is None and engine.test_break():
-                    cancel_at = now
-                    stop.set()
-                    self.stats("cancelling")
-                if cancel_at is not None:
-                    continue
-                # New units in: shown at once, then at most twice a second.
-                if (preview is not None and preview.version != last_version
-                        and now - last_write >= UPDATE_INTERVAL_S):
-                    last_version, last_write = preview.version, now
-                    self._write(result, preview.image(), bands)
-                    engine.update_result(result)
-                    self.summary["updates"] += 1
-                    self.summary["update_times"].append(now - t0)
-                if now - last_stats >= UPDATE_INTERVAL_S:
-                    last_stats = now
-                    self.progress(0.02 + 0.98 * done[0] / max(1, total))
-                    self.stats(f"Dask {address}: {done[0]}/{total} units")
-        finally:
-            if thread.is_alive():
-                stop.set()
-            thread.join()
-            if cancel_at is not None:
-                self.summary["cancelled"] = True
-                self.summary["cancel_latency_s"] = time.perf_counter() - cancel_at
+        last = {"write": -UPDATE_INTERVAL_S, "stats": 0.0, "version": 0}
+
+        def tick(result, now):
+            # New units in: shown at once, then at most twice a second.
+            if (preview is not None and preview.version != last["version"]
+                    and now - last["write"] >= UPDATE_INTERVAL_S):
+                last["version"], last["write"] = preview.version, now
+                self._show(result, preview.image(), bands, now - t0)
+            if now - last["stats"] >= UPDATE_INTERVAL_S:
+                last["stats"] = now
+                self.progress(0.02 + 0.98 * done[0] / max(1, total))
+                self.stats(f"Dask {address}: {done[0]}/{total} units")
+
+        def final_image():
             final = holder.get("result")
-            image = (final.images.get(camera.name) if final is not None and camera is not None
-                     else preview.image() if preview is not None else None)
-            if image is not None:
-                self._write(result, image, bands)
-            engine.end_result(result)
+            if final is not None and camera is not None:
+                return final.images.get(camera.name)
+            return preview.image() if preview is not None else None
+
+        self._poll(work, "photic-dask", stop.set, tick, final_image, (width, height), bands)
+        final = holder.get("result")
         report = holder.get("report")
         self.summary["distributed"] = {"scheduler": address, "units": total, "cache": str(cache)}
         if report is not None:
@@ -336,6 +296,45 @@ class FinalRender:
         self.progress(1.0)
         self.stats(f"{self.summary['samples']} samples, {total} units on Dask {address} in "
                    f"{time.perf_counter() - t0:.1f} s")
+
+    def _poll(self, work, name: str, cancel, tick, final_image, size, bands) -> None:
+        """Run work() in a thread while Blender waits, polling every POLL_S: Esc calls cancel()
+        (once), otherwise tick(result, now) may update the render view. At the end, or after an
+        error in the loop (then cancel() first), the thread is joined, the cancel latency
+        recorded and final_image() (when not None) written into the render result."""
+        engine = self.engine
+        thread = threading.Thread(target=work, name=name, daemon=True)
+        result = engine.begin_result(0, 0, *size)
+        cancel_at = None
+        try:
+            thread.start()
+            while thread.is_alive():
+                thread.join(POLL_S)
+                now = time.perf_counter()
+                if cancel_at is None and engine.test_break():
+                    cancel_at = now
+                    cancel()
+                    self.stats("cancelling")
+                if cancel_at is None:
+                    tick(result, now)
+        finally:
+            if thread.is_alive():  # an exception in the loop: stop the worker first
+                cancel()
+            thread.join()
+            if cancel_at is not None:
+                self.summary["cancelled"] = True
+                self.summary["cancel_latency_s"] = time.perf_counter() - cancel_at
+            image = final_image()
+            if image is not None:
+                self._write(result, image, bands)
+            engine.end_result(result)
+
+    def _show(self, result, image, bands, t: float) -> None:
+        """A streamed update of the render view, t seconds into the render."""
+        self._write(result, image, bands)
+        self.engine.update_result(result)
+        self.summary["updates"] += 1
+        self.summary["update_times"].append(t)
 
     def _write(self, result, image, bands) -> None:
         layer = result.layers[0]

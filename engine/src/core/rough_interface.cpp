@@ -23,6 +23,25 @@ double smith_lambda(double nu) {
 }
 
 // Height-correlated Smith G for transmission: B(1 + a, 1 + b) (Euler beta function).
+// Transmission from i to o (o.z < 0, local frame, eta_oi = n_i / n_o): the generalised half
+// vector h (on the side of i), the cosines ci, co of i and o with it, the Fresnel reflectance
+// F at ci and denom = ci + eta_oi co; false when no microfacet transmits i into o.
+struct Transmission {
+    Vec3 h;
+    double ci, co, F, denom;
+};
+bool transmission(const Vec3& i, const Vec3& o, double eta_oi, Transmission* t) {
+    t->h = normalize(i + o * eta_oi);
+    if (t->h.z < 0.0) t->h = -t->h;
+    t->ci = dot(i, t->h);
+    t->co = dot(o, t->h);
+    if (!(t->ci > 0.0) || !(t->co < 0.0)) return false;
+    t->F = fresnel_unpolarized(t->ci, 1.0, eta_oi);
+    if (t->F >= 1.0) return false;
+    t->denom = t->ci + eta_oi * t->co;
+    return true;
+}
+
 double beta_shadowing(double a, double b) {
     if (a >= kInf || b >= kInf) return 0.0;
     return std::exp(std::lgamma(1.0 + a) + std::lgamma(1.0 + b) - std::lgamma(2.0 + a + b));
@@ -91,16 +110,11 @@ double RoughInterface::eval_local(const Vec3& i, const Vec3& o, double eta_oi) c
         double G = 1.0 / (1.0 + lambda_local(i) + lambda_local(o));
         return F * d_local(h) * G / (4.0 * i.z * o.z);
     }
-    if (o.z < 0.0) {  // transmission
-        Vec3 h = normalize(i + o * eta_oi);
-        if (h.z < 0.0) h = -h;
-        double ci = dot(i, h), co = dot(o, h);
-        if (!(ci > 0.0) || !(co < 0.0)) return 0.0;
-        double F = fresnel_unpolarized(ci, 1.0, eta_oi);
-        if (F >= 1.0) return 0.0;
-        double denom = ci + eta_oi * co;
+    Transmission t;
+    if (o.z < 0.0 && transmission(i, o, eta_oi, &t)) {
         double G = beta_shadowing(lambda_local(i), lambda_local(o));
-        return ci * (-co) / (i.z * (-o.z)) * eta_oi * eta_oi * (1.0 - F) * G * d_local(h) / (denom * denom);
+        return t.ci * (-t.co) / (i.z * (-o.z)) * eta_oi * eta_oi * (1.0 - t.F) * G * d_local(t.h) /
+               (t.denom * t.denom);
     }
     return 0.0;
 }
@@ -113,16 +127,9 @@ double RoughInterface::pdf_local(const Vec3& i, const Vec3& o, double eta_oi) co
         double F = fresnel_unpolarized(ci, 1.0, eta_oi);
         return d_local(h) * h.z * F / (4.0 * ci);
     }
-    if (o.z < 0.0) {
-        Vec3 h = normalize(i + o * eta_oi);
-        if (h.z < 0.0) h = -h;
-        double ci = dot(i, h), co = dot(o, h);
-        if (!(ci > 0.0) || !(co < 0.0)) return 0.0;
-        double F = fresnel_unpolarized(ci, 1.0, eta_oi);
-        if (F >= 1.0) return 0.0;
-        double denom = ci + eta_oi * co;
-        return d_local(h) * h.z * (1.0 - F) * eta_oi * eta_oi * (-co) / (denom * denom);
-    }
+    Transmission t;
+    if (o.z < 0.0 && transmission(i, o, eta_oi, &t))
+        return d_local(t.h) * t.h.z * (1.0 - t.F) * eta_oi * eta_oi * (-t.co) / (t.denom * t.denom);
     return 0.0;
 }
 

@@ -496,16 +496,22 @@ def height_variance(model: WaveModel) -> float:
     return float(np.sum(_grid_psi(model)[2]))
 
 
+def _wave_energy(model: WaveModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(kx, ky, expected |h|^2) of the model's components: its sinusoids, or the grid's
+    spectrum times dkx dky."""
+    model.validate()
+    if model.spectrum == "sinusoids":
+        kx, ky, h = amplitudes(model)
+        return kx, ky, np.abs(h) ** 2
+    kx, ky, energy, _ = _grid_psi(model)
+    return kx, ky, energy
+
+
 def slope_variance(model: WaveModel, axis: str | None = None) -> float:
     """Expected mean square slope of the realisations over the grid's band: ``sum k^2 Psi
     dkx dky`` (both axes, the Cox-Munk sigma^2), or ``sum kx^2 Psi`` (``axis="x"``) or
     ``sum ky^2 Psi`` (``axis="y"``)."""
-    model.validate()
-    if model.spectrum == "sinusoids":
-        kx, ky, h = amplitudes(model)
-        energy = np.abs(h) ** 2
-    else:
-        kx, ky, energy, _ = _grid_psi(model)
+    kx, ky, energy = _wave_energy(model)
     weight = {None: kx * kx + ky * ky, "x": kx * kx + 0 * ky, "y": ky * ky + 0 * kx}[axis]
     return float(np.sum(weight * energy))
 
@@ -514,12 +520,7 @@ def slope_variance_along(model: WaveModel, azimuth_deg: float) -> float:
     """Expected mean square slope along the horizontal direction at ``azimuth_deg`` (from +x
     towards +y): ``sum (k.e)^2 Psi``; along the wind and across it these are the resolved
     upwind and crosswind variances."""
-    model.validate()
-    if model.spectrum == "sinusoids":
-        kx, ky, h = amplitudes(model)
-        energy = np.abs(h) ** 2
-    else:
-        kx, ky, energy, _ = _grid_psi(model)
+    kx, ky, energy = _wave_energy(model)
     a = math.radians(azimuth_deg)
     return float(np.sum((kx * math.cos(a) + ky * math.sin(a)) ** 2 * energy))
 
