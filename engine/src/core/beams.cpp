@@ -40,7 +40,7 @@ struct SourceTri {
 // every density in the grid. c(x) = c_base + rho c_unit with rho >= 0 and c_unit >= 0.
 void Scene::set_grid_coefficients(Water& w) const {
     VoxelGrid& g = *w.grid;
-    WaterLayer& U = g.unit;
+    WaterLayer& U = w.grid_unit;
     const WaterLayer& B = w.layers[0];
     U.b_path = Spectrum();
     U.comp_b_path.assign(w.components.size(), Spectrum());

@@ -209,31 +209,29 @@ PYBIND11_MODULE(_core, m) {
             if (rho.ndim() != 3) throw std::invalid_argument("the density must be an (nx, ny, nz) array");
             if (b.size() != w.components.size())
                 throw std::invalid_argument("the grid's unit IOPs need one scattering spectrum per component");
-            auto g = std::make_shared<VoxelGrid>();
+            int n[3];
             for (int a = 0; a < 3; ++a) {
                 if (!(hi[a] > lo[a]) || !std::isfinite(lo[a]) || !std::isfinite(hi[a]))
                     throw std::invalid_argument("the grid's box must have finite corners with hi > lo");
                 if (rho.shape(a) < 1) throw std::invalid_argument("the grid needs at least one voxel per axis");
-                g->lo[a] = lo[a];
-                g->hi[a] = hi[a];
-                g->n[a] = int(rho.shape(a));
+                n[a] = int(rho.shape(a));
             }
-            g->rho.assign(rho.data(), rho.data() + rho.size());
-            for (float r : g->rho)
-                if (!(r >= 0.f) || !std::isfinite(r)) throw std::invalid_argument("densities must be finite and >= 0");
-            g->unit.a = to_spectrum(a, s.nbands, "absorption");
+            WaterLayer unit;
+            unit.a = to_spectrum(a, s.nbands, "absorption");
             for (auto& bc : b) {
-                g->unit.comp_b.push_back(to_spectrum(bc, s.nbands, "scattering"));
-                for (int k = 0; k < s.nbands; ++k) g->unit.b.v[k] += g->unit.comp_b.back().v[k];
+                unit.comp_b.push_back(to_spectrum(bc, s.nbands, "scattering"));
+                for (int k = 0; k < s.nbands; ++k) unit.b.v[k] += unit.comp_b.back().v[k];
             }
             for (int k = 0; k < s.nbands; ++k) {
-                if (g->unit.a.v[k] < 0.0 || g->unit.b.v[k] < 0.0)
+                if (unit.a.v[k] < 0.0 || unit.b.v[k] < 0.0)
                     throw std::invalid_argument("the grid's unit IOPs must be >= 0");
             }
+            auto g = std::make_shared<VoxelGrid>();
             {
                 py::gil_scoped_release release;
-                g->finish();
+                g->build(lo.data(), hi.data(), n, rho.data());  // checks the densities
             }
+            w.grid_unit = unit;
             w.grid = g;
         }, py::arg("water"), py::arg("lo"), py::arg("hi"), py::arg("density"), py::arg("absorption"),
            py::arg("scattering"),
@@ -332,6 +330,14 @@ PYBIND11_MODULE(_core, m) {
         })
         .def("commit", [](Scene& s) { py::gil_scoped_release nogil; s.commit(); })
         .def("medium_at", [](const Scene& s, std::array<double, 3> p) { return s.medium_at(to_vec(p)); })
+        .def("grid_integral", [](const Scene& s, int water, std::array<double, 3> p0, std::array<double, 3> p1) {
+            const Water& w = s.waters.at(water);
+            if (!w.grid) throw std::invalid_argument("this water has no grid");
+            Vec3 a = to_vec(p0), b = to_vec(p1);
+            return w.grid->integral(a, b, length(b - a));
+        }, py::arg("water"), py::arg("p0"), py::arg("p1"),
+           "The integral of the grid's density along the segment p0 -> p1 (m): what the "
+           "integrators' optical depths use (for tests).")
         .def("camera_medium", [](const Scene& s, int i) { return s.cameras.at(i).medium; })
         .def("radiometer_medium", [](const Scene& s, int i) { return s.radiometers.at(i).medium; })
         .def("radiometer_bins", [](const Scene& s, int i) { return s.radiometers.at(i).bins(); })

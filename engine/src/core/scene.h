@@ -13,6 +13,7 @@
 #include "rng.h"
 #include "vec.h"
 #include "rough_interface.h"
+#include "voxel_grid.h"
 
 namespace photic {
 
@@ -52,206 +53,6 @@ struct WaterLayer {
     double c_path_mean = 0.0;
 };
 
-// A 3-D grid of piecewise-constant voxels over an axis-aligned box: one density rho >= 0 per
-// voxel (float32) scaling a "unit" set of IOPs added to the water's base IOPs,
-// c(x) = c_base + rho(x) c_unit (absorption and each component's b alike); outside the box
-// rho = 0. Empty space is skipped at two levels, so that a sparse plume costs little where
-// rays miss it: the box of the non-empty voxels, and bricks of B^3 voxels, each keeping its
-// largest rho (and, for regional delta tracking, its majorant); only non-empty bricks are stored.
-struct VoxelGrid {
-    static constexpr int B = 8;  // voxels per brick edge
-    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-    double cell[3] = {1, 1, 1}, bcell[3] = {1, 1, 1};    // voxel and brick sizes (m)
-    double icell[3] = {1, 1, 1}, ibcell[3] = {1, 1, 1};  // 1 / size
-    int n[3] = {1, 1, 1}, nb[3] = {1, 1, 1};
-    // The densities as given, voxel (i, j, k) at (i * n[1] + j) * n[2] + k; finish() moves them
-    // into `bricks` and frees this.
-    std::vector<float> rho;
-    // Non-empty bricks only, B^3 densities each (local (i, j, k) at (i * B + j) * B + k): a
-    // sparse plume takes little memory, and a ray's voxels in one brick share cache lines.
-    std::vector<float> bricks;
-    std::vector<int32_t> brick_slot;  // per brick: its block in `bricks`, or -1 when empty
-    std::vector<float> brick_max;  // largest rho per brick, layout (i * nb[1] + j) * nb[2] + k
-    std::vector<double> brick_maj; // majorant per brick (Scene::set_grid_coefficients)
-    bool occupied = false;         // any rho > 0; then the box of those voxels:
-    double occ_lo[3] = {0, 0, 0}, occ_hi[3] = {0, 0, 0};
-    float rho_min = 0.f, rho_max = 0.f;
-    WaterLayer unit;               // IOPs added per unit density (same components as the base)
-
-    void finish() {
-        for (int a = 0; a < 3; ++a) {
-            cell[a] = (hi[a] - lo[a]) / n[a];
-            nb[a] = (n[a] + B - 1) / B;
-            bcell[a] = cell[a] * B;
-            icell[a] = 1.0 / cell[a];
-            ibcell[a] = 1.0 / bcell[a];
-        }
-        brick_max.assign(size_t(nb[0]) * nb[1] * nb[2], 0.f);
-        rho_min = rho.empty() ? 0.f : rho[0];
-        rho_max = rho_min;
-        int first[3] = {n[0], n[1], n[2]}, last[3] = {-1, -1, -1};
-        for (int i = 0; i < n[0]; ++i)
-            for (int j = 0; j < n[1]; ++j)
-                for (int k = 0; k < n[2]; ++k) {
-                    float r = rho[(size_t(i) * n[1] + j) * n[2] + k];
-                    rho_min = std::min(rho_min, r);
-                    rho_max = std::max(rho_max, r);
-                    if (!(r > 0.f)) continue;
-                    float& m = brick_max[(size_t(i / B) * nb[1] + j / B) * nb[2] + k / B];
-                    m = std::max(m, r);
-                    const int ijk[3] = {i, j, k};
-                    for (int a = 0; a < 3; ++a) {
-                        first[a] = std::min(first[a], ijk[a]);
-                        last[a] = std::max(last[a], ijk[a]);
-                    }
-                }
-        brick_slot.assign(brick_max.size(), -1);
-        size_t used = 0;
-        for (size_t b = 0; b < brick_max.size(); ++b)
-            if (brick_max[b] > 0.f) brick_slot[b] = int32_t(used++);
-        bricks.assign(used * B * B * B, 0.f);
-        for (int i = 0; i < nb[0]; ++i)
-            for (int j = 0; j < nb[1]; ++j)
-                for (int k = 0; k < nb[2]; ++k) {
-                    size_t b = (size_t(i) * nb[1] + j) * nb[2] + k;
-                    if (brick_slot[b] < 0) continue;
-                    float* dst = &bricks[size_t(brick_slot[b]) * B * B * B];
-                    for (int u = 0; u < B && i * B + u < n[0]; ++u)
-                        for (int v = 0; v < B && j * B + v < n[1]; ++v)
-                            for (int w = 0; w < B && k * B + w < n[2]; ++w)
-                                dst[(u * B + v) * B + w] =
-                                    rho[(size_t(i * B + u) * n[1] + j * B + v) * n[2] + k * B + w];
-                }
-        std::vector<float>().swap(rho);
-        occupied = last[0] >= 0;
-        for (int a = 0; a < 3 && occupied; ++a) {
-            // The faces of the first and last non-empty voxels, widened by a hair so that a
-            // ray along a face is not clipped away by rounding.
-            double pad = 1e-9 * (hi[a] - lo[a]);
-            occ_lo[a] = (first[a] == 0 ? lo[a] : lo[a] + first[a] * cell[a]) - pad;
-            occ_hi[a] = (last[a] == n[a] - 1 ? hi[a] : lo[a] + (last[a] + 1) * cell[a]) + pad;
-        }
-    }
-    // The density at p (0 outside the box).
-    double at(const Vec3& p) const {
-        const double q[3] = {p.x, p.y, p.z};
-        int idx[3];
-        for (int a = 0; a < 3; ++a) {
-            if (!(q[a] >= lo[a] && q[a] <= hi[a])) return 0.0;
-            idx[a] = std::min(n[a] - 1, std::max(0, int((q[a] - lo[a]) / cell[a])));
-        }
-        int32_t slot = brick_slot[(size_t(idx[0] / B) * nb[1] + idx[1] / B) * nb[2] + idx[2] / B];
-        if (slot < 0) return 0.0;
-        return bricks[size_t(slot) * B * B * B + ((idx[0] % B) * B + idx[1] % B) * B + idx[2] % B];
-    }
-    // The part [t0, t1] of o + d t, t in [0, tmax], inside the box [blo, bhi]; false if none.
-    static bool clip(const double* blo, const double* bhi, const Vec3& o, const Vec3& d,
-                     double tmax, double* t0, double* t1) {
-        const double oo[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
-        double a0 = 0.0, a1 = tmax;
-        for (int a = 0; a < 3; ++a) {
-            if (dd[a] == 0.0) {
-                if (oo[a] < blo[a] || oo[a] > bhi[a]) return false;
-                continue;
-            }
-            double ta = (blo[a] - oo[a]) / dd[a], tb = (bhi[a] - oo[a]) / dd[a];
-            if (ta > tb) std::swap(ta, tb);
-            a0 = std::max(a0, ta);
-            a1 = std::min(a1, tb);
-        }
-        *t0 = a0;
-        *t1 = a1;
-        return a1 > a0;
-    }
-    // The part of o + d t, t in [0, tmax], where rho may be > 0 (the non-empty voxels' box).
-    bool clip_occupied(const Vec3& o, const Vec3& d, double tmax, double* t0, double* t1) const {
-        return occupied && clip(occ_lo, occ_hi, o, d, tmax, t0, t1);
-    }
-    // A ray's origin, direction and reciprocal direction (1/0 = inf), for the walks below.
-    struct Ray {
-        double o[3], d[3], inv[3];
-        Ray(const Vec3& org, const Vec3& dir) : o{org.x, org.y, org.z}, d{dir.x, dir.y, dir.z} {
-            for (int a = 0; a < 3; ++a) inv[a] = d[a] != 0.0 ? 1.0 / d[a] : kInf;
-        }
-    };
-    // 3-D DDA over cells of size cs (1/cs = ics; m cells per axis from the corner org) along
-    // the ray for t in [t0, t1]: f(cell's linear index, its (i, j, k), t_enter, t_leave) for
-    // each cell crossed, in order; f returns true
-    // to stop. Returns true if f did. No divisions: walks are the inner loop of gridded water.
-    template <class F>
-    bool walk(const Ray& r, double t0, double t1, const double* org, const double* cs, const double* ics,
-              const int* m, F&& f) const {
-        const double tm = 0.5 * (t0 + std::min(t1, t0 + 1e-9 * (1.0 + t1 - t0)));
-        const std::ptrdiff_t stride[3] = {std::ptrdiff_t(m[1]) * m[2], m[2], 1};
-        int idx[3], step[3];
-        double tnext[3], tdelta[3];
-        std::ptrdiff_t lin = 0;
-        for (int a = 0; a < 3; ++a) {
-            // int() truncates towards 0, which for -1 < x < 0 is the clamp to cell 0 anyway.
-            double x = (r.o[a] + r.d[a] * tm - org[a]) * ics[a];
-            idx[a] = x < 0.0 ? 0 : std::min(m[a] - 1, int(x));
-            lin += idx[a] * stride[a];
-            if (r.d[a] > 0.0) {
-                step[a] = 1;
-                tnext[a] = (org[a] + (idx[a] + 1) * cs[a] - r.o[a]) * r.inv[a];
-                tdelta[a] = cs[a] * r.inv[a];
-            } else if (r.d[a] < 0.0) {
-                step[a] = -1;
-                tnext[a] = (org[a] + idx[a] * cs[a] - r.o[a]) * r.inv[a];
-                tdelta[a] = -cs[a] * r.inv[a];
-            } else {
-                step[a] = 0;
-                tnext[a] = kInf;
-                tdelta[a] = kInf;
-            }
-        }
-        double t = t0;
-        for (;;) {
-            int a = tnext[0] < tnext[1] ? (tnext[0] < tnext[2] ? 0 : 2) : (tnext[1] < tnext[2] ? 1 : 2);
-            double tb = std::min(std::max(tnext[a], t), t1);
-            if (f(size_t(lin), idx, t, tb)) return true;
-            if (tb >= t1) return false;
-            t = tb;
-            idx[a] += step[a];
-            if (unsigned(idx[a]) >= unsigned(m[a])) return false;
-            lin += step[a] * stride[a];
-            tnext[a] += tdelta[a];
-        }
-    }
-    // The bricks along the ray for t in [t0, t1] (inside the box), in order: f(brick, its
-    // (i, j, k), t_enter, t_leave) for the non-empty ones, gap(t_enter, t_leave) for the empty
-    // ones; either returns true to stop. (A level of larger blocks above the bricks was
-    // measured slower: the non-empty voxels' box already skips most clear water.)
-    template <class F, class G>
-    bool walk_bricks(const Ray& r, double t0, double t1, F&& f, G&& gap) const {
-        return walk(r, t0, t1, lo, bcell, ibcell, nb, [&](size_t b, const int* ijk, double ta, double tb) {
-            return brick_slot[b] >= 0 ? f(b, ijk, ta, tb) : gap(ta, tb);
-        });
-    }
-    // int rho dl along the segment from p0 to p1 (length len).
-    double integral(const Vec3& p0, const Vec3& p1, double len) const {
-        if (!(len > 0.0)) return 0.0;
-        Vec3 d = (p1 - p0) * (1.0 / len);
-        double t0, t1, sum = 0.0;
-        if (!clip_occupied(p0, d, len, &t0, &t1)) return 0.0;
-        const Ray r(p0, d);
-        walk_bricks(r, t0, t1, [&](size_t b, const int* ijk, double ba, double bb) {
-            if (!(bb > ba)) return false;
-            // The brick's own voxels, walked from its corner.
-            const double corner[3] = {lo[0] + ijk[0] * bcell[0], lo[1] + ijk[1] * bcell[1],
-                                      lo[2] + ijk[2] * bcell[2]};
-            const float* v = &bricks[size_t(brick_slot[b]) * B * B * B];
-            static constexpr int m[3] = {B, B, B};
-            walk(r, ba, bb, corner, cell, icell, m, [&](size_t i, const int*, double ta, double tb) {
-                sum += double(v[i]) * (tb - ta);
-                return false;
-            });
-            return false;
-        }, [](double, double) { return false; });
-        return sum;
-    }
-};
-
 struct Water {
     double ior = 1.34;
     std::vector<ScatterComponent> components;
@@ -267,7 +68,10 @@ struct Water {
     double mis_wsum = 0.0;               // sum of the components' weights (its pdf)
 
     bool stratified() const { return layers.size() > 1; }
-    std::shared_ptr<VoxelGrid> grid;     // 3-D IOPs over a box (base IOPs: layers[0]); or null
+    // 3-D IOPs over a box, or null: c(x) = c_base + rho(x) c_unit (absorption and each
+    // component's b alike), with the base IOPs in layers[0] and the unit ones in grid_unit.
+    std::shared_ptr<VoxelGrid> grid;
+    WaterLayer grid_unit;
     bool varying() const { return layers.size() > 1 || grid; }
     // The coefficients at p: the layer's, or in a grid the base plus rho(p) times the unit
     // (written into *scratch). Only the fields the integrators read at a point are filled.
@@ -276,7 +80,7 @@ struct Water {
         double r = grid->at(p);
         if (r == 0.0) return layers[0];
         const WaterLayer& B = layers[0];
-        const WaterLayer& U = grid->unit;
+        const WaterLayer& U = grid_unit;
         const size_t nc = B.comp_b.size();
         scratch->comp_b.resize(nc);
         scratch->comp_b_path.resize(nc);
@@ -318,8 +122,7 @@ struct Water {
             xi -= m * (tb - ta);
             return false;
         };
-        grid->walk_bricks(VoxelGrid::Ray(o, d), t0, t1,
-                          [&](size_t b, const int*, double ta, double tb) { return region(grid->brick_maj[b], ta, tb); },
+        grid->walk_bricks(o, d, t0, t1, [&](size_t b, double ta, double tb) { return region(grid->brick_maj[b], ta, tb); },
                           [&](double ta, double tb) { return region(m0, ta, tb); });
         if (res < kInf) return res;
         *maj = m0;
@@ -330,7 +133,7 @@ struct Water {
     void grid_optical_depth(bool attenuation, const Vec3& p0, const Vec3& p1, double len, int nb,
                             Spectrum* tau) const {
         const WaterLayer& B = layers[0];
-        const WaterLayer& U = grid->unit;
+        const WaterLayer& U = grid_unit;
         double r = grid->integral(p0, p1, len);
         const Spectrum& cb = attenuation ? B.c_path : B.a;
         const Spectrum& cu = attenuation ? U.c_path : U.a;

@@ -1,0 +1,332 @@
+// A 3-D grid of piecewise-constant densities over an axis-aligned box, stored sparsely in
+// bricks, with the walks that gridded water needs: the exact integral of the density along a
+// segment (the beams' and paths' optical depths) and a brick-by-brick walk (regional delta
+// tracking). The IOPs the densities scale live in Water (scene.h).
+#pragma once
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <stdexcept>
+#include <vector>
+#include "vec.h"
+
+namespace photic {
+
+// One density rho >= 0 per voxel; outside the box rho = 0. Empty space is skipped at three
+// levels, so that a sparse plume costs little where rays miss it: the box of the non-empty
+// voxels, bricks of B^3 voxels (only non-empty ones are stored, each with its largest rho and
+// its majorant), and per empty brick the radius of the empty cube of bricks around it, which
+// a walk crosses in one jump.
+struct VoxelGrid {
+    static constexpr int B = 8;        // voxels per brick edge (a power of 2)
+    static constexpr int kShift = 3;   // log2(B)
+    static constexpr int kClearCap = 4;  // largest empty-cube radius stored (bricks)
+    double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+    double cell[3] = {1, 1, 1}, bcell[3] = {1, 1, 1};    // voxel and brick sizes (m)
+    double icell[3] = {1, 1, 1}, ibcell[3] = {1, 1, 1};  // 1 / size
+    int n[3] = {1, 1, 1}, nb[3] = {1, 1, 1};
+    // Non-empty bricks only, B^3 densities each (local (i, j, k) at (i * B + j) * B + k): a
+    // sparse plume takes little memory, and a ray's voxels in one brick share cache lines.
+    std::vector<float> bricks;
+    std::vector<int32_t> brick_slot;  // per brick: its block in `bricks`, or -1 when empty
+    std::vector<float> brick_max;     // largest rho per brick, layout (i * nb[1] + j) * nb[2] + k
+    std::vector<double> brick_maj;    // majorant per brick (Scene::set_grid_coefficients)
+    // Per brick: 0 if non-empty, else r (1..kClearCap) such that every brick within r - 1
+    // bricks of it (the cube of side 2 r - 1 around it) is empty.
+    std::vector<uint8_t> brick_clear;
+    bool occupied = false;            // any rho > 0; then the box of those voxels:
+    double occ_lo[3] = {0, 0, 0}, occ_hi[3] = {0, 0, 0};
+    float rho_min = 0.f, rho_max = 0.f;
+
+    // The grid over [lo_, hi_] from densities rho[(i * n1 + j) * n2 + k] (not kept); throws
+    // std::invalid_argument for a density that is negative or not finite.
+    void build(const double* lo_, const double* hi_, const int* n_, const float* rho) {
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = lo_[a];
+            hi[a] = hi_[a];
+            n[a] = n_[a];
+            cell[a] = (hi[a] - lo[a]) / n[a];
+            nb[a] = (n[a] + B - 1) / B;
+            bcell[a] = cell[a] * B;
+            icell[a] = 1.0 / cell[a];
+            ibcell[a] = 1.0 / bcell[a];
+        }
+        const size_t nbricks = size_t(nb[0]) * nb[1] * nb[2];
+        brick_max.assign(nbricks, 0.f);
+        rho_min = rho[0];
+        rho_max = rho[0];
+        int first[3] = {n[0], n[1], n[2]}, last[3] = {-1, -1, -1};
+        const float* r = rho;
+        for (int i = 0; i < n[0]; ++i)
+            for (int j = 0; j < n[1]; ++j) {
+                float* row_max = &brick_max[(size_t(i >> kShift) * nb[1] + (j >> kShift)) * nb[2]];
+                int kfirst = -1, klast = -1;
+                for (int k = 0; k < n[2]; ++k, ++r) {
+                    const float v = *r;
+                    if (!(v >= 0.f) || !std::isfinite(v))
+                        throw std::invalid_argument("densities must be finite and >= 0");
+                    rho_min = std::min(rho_min, v);
+                    rho_max = std::max(rho_max, v);
+                    if (v > 0.f) {
+                        float& m = row_max[k >> kShift];
+                        m = std::max(m, v);
+                        if (kfirst < 0) kfirst = k;
+                        klast = k;
+                    }
+                }
+                if (kfirst < 0) continue;
+                first[0] = std::min(first[0], i); last[0] = std::max(last[0], i);
+                first[1] = std::min(first[1], j); last[1] = std::max(last[1], j);
+                first[2] = std::min(first[2], kfirst); last[2] = std::max(last[2], klast);
+            }
+        brick_slot.assign(nbricks, -1);
+        size_t used = 0;
+        for (size_t b = 0; b < nbricks; ++b)
+            if (brick_max[b] > 0.f) brick_slot[b] = int32_t(used++);
+        bricks.assign(used * B * B * B, 0.f);
+        r = rho;
+        for (int i = 0; i < n[0]; ++i)
+            for (int j = 0; j < n[1]; ++j)
+                for (int k = 0; k < n[2]; ++k, ++r) {
+                    if (!(*r > 0.f)) continue;
+                    size_t b = (size_t(i >> kShift) * nb[1] + (j >> kShift)) * nb[2] + (k >> kShift);
+                    bricks[size_t(brick_slot[b]) * B * B * B +
+                           (((i & (B - 1)) * B + (j & (B - 1))) * B + (k & (B - 1)))] = *r;
+                }
+        occupied = last[0] >= 0;
+        for (int a = 0; a < 3 && occupied; ++a) {
+            // The faces of the first and last non-empty voxels; inside the grid widened by a
+            // hair (the space there is empty) so that a ray along a face is not clipped away
+            // by rounding; the grid's own faces exactly (beyond them the walk would count the
+            // outermost voxels).
+            double pad = 1e-9 * (hi[a] - lo[a]);
+            occ_lo[a] = first[a] == 0 ? lo[a] : lo[a] + first[a] * cell[a] - pad;
+            occ_hi[a] = last[a] == n[a] - 1 ? hi[a] : lo[a] + (last[a] + 1) * cell[a] + pad;
+        }
+        build_clear();
+    }
+
+    // brick_clear: the empty bricks' Chebyshev distance to the nearest non-empty brick, capped,
+    // by growing the non-empty set one brick at a time (a dilation by a 3^3 cube, one axis at
+    // a time).
+    void build_clear() {
+        const size_t nbricks = brick_slot.size();
+        const std::ptrdiff_t stride[3] = {std::ptrdiff_t(nb[1]) * nb[2], nb[2], 1};
+        brick_clear.assign(nbricks, uint8_t(kClearCap));
+        std::vector<uint8_t> grown(nbricks), next(nbricks);
+        for (size_t b = 0; b < nbricks; ++b) {
+            grown[b] = brick_slot[b] >= 0;
+            if (grown[b]) brick_clear[b] = 0;
+        }
+        for (int radius = 1; radius < kClearCap; ++radius) {
+            for (int a = 0; a < 3; ++a) {
+                size_t b = 0;
+                for (int i = 0; i < nb[0]; ++i)
+                    for (int j = 0; j < nb[1]; ++j)
+                        for (int k = 0; k < nb[2]; ++k, ++b) {
+                            const int c = a == 0 ? i : a == 1 ? j : k;
+                            uint8_t g = grown[b];
+                            if (c > 0) g |= grown[b - stride[a]];
+                            if (c + 1 < nb[a]) g |= grown[b + stride[a]];
+                            next[b] = g;
+                        }
+                grown.swap(next);
+            }
+            for (size_t b = 0; b < nbricks; ++b)
+                if (grown[b] && brick_clear[b] > radius) brick_clear[b] = uint8_t(radius);
+        }
+    }
+
+    // The density at p (0 outside the box).
+    double at(const Vec3& p) const {
+        const double q[3] = {p.x, p.y, p.z};
+        int idx[3];
+        for (int a = 0; a < 3; ++a) {
+            if (!(q[a] >= lo[a] && q[a] <= hi[a])) return 0.0;
+            idx[a] = std::min(n[a] - 1, std::max(0, int((q[a] - lo[a]) * icell[a])));
+        }
+        int32_t slot = brick_slot[(size_t(idx[0] >> kShift) * nb[1] + (idx[1] >> kShift)) * nb[2] + (idx[2] >> kShift)];
+        if (slot < 0) return 0.0;
+        constexpr int M = B - 1;
+        return bricks[size_t(slot) * B * B * B + (((idx[0] & M) * B + (idx[1] & M)) * B + (idx[2] & M))];
+    }
+
+    // The part [t0, t1] of o + d t, t in [0, tmax], inside the box [blo, bhi]; false if none.
+    static bool clip(const double* blo, const double* bhi, const Vec3& o, const Vec3& d,
+                     double tmax, double* t0, double* t1) {
+        const double oo[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
+        double a0 = 0.0, a1 = tmax;
+        for (int a = 0; a < 3; ++a) {
+            if (dd[a] == 0.0) {
+                if (oo[a] < blo[a] || oo[a] > bhi[a]) return false;
+                continue;
+            }
+            double ta = (blo[a] - oo[a]) / dd[a], tb = (bhi[a] - oo[a]) / dd[a];
+            if (ta > tb) std::swap(ta, tb);
+            a0 = std::max(a0, ta);
+            a1 = std::min(a1, tb);
+        }
+        *t0 = a0;
+        *t1 = a1;
+        return a1 > a0;
+    }
+    // The part of o + d t, t in [0, tmax], where rho may be > 0 (the non-empty voxels' box).
+    bool clip_occupied(const Vec3& o, const Vec3& d, double tmax, double* t0, double* t1) const {
+        return occupied && clip(occ_lo, occ_hi, o, d, tmax, t0, t1);
+    }
+
+    // A 3-D DDA along o + d t for t in [t0, t1] over cells of size cs (m per axis, from the
+    // corner org): the first cell from a point just inside the segment (robust at faces),
+    // then one face at a time. No divisions after the set-up.
+    struct Dda {
+        int idx[3], step[3];
+        double tnext[3], tdelta[3];
+        Dda(const double* o, const double* d, double t0, double t1, const double* org,
+            const double* cs, const double* ics, const int* m) {
+            const double tm = 0.5 * (t0 + std::min(t1, t0 + 1e-9 * (1.0 + t1 - t0)));
+            for (int a = 0; a < 3; ++a) {
+                // int() truncates towards 0, which for -1 < x < 0 is the clamp to cell 0 anyway.
+                double x = (o[a] + d[a] * tm - org[a]) * ics[a];
+                idx[a] = x < 0.0 ? 0 : std::min(m[a] - 1, int(x));
+                if (d[a] > 0.0) {
+                    step[a] = 1;
+                    tnext[a] = (org[a] + (idx[a] + 1) * cs[a] - o[a]) / d[a];
+                    tdelta[a] = cs[a] / d[a];
+                } else if (d[a] < 0.0) {
+                    step[a] = -1;
+                    tnext[a] = (org[a] + idx[a] * cs[a] - o[a]) / d[a];
+                    tdelta[a] = -cs[a] / d[a];
+                } else {
+                    step[a] = 0;
+                    tnext[a] = kInf;
+                    tdelta[a] = kInf;
+                }
+            }
+        }
+    };
+
+    // The bricks along o + d t for t in [t0, t1] (inside the box), in order: f(brick, t_enter,
+    // t_leave) for the non-empty ones, gap(t_enter, t_leave) for runs of empty ones (an empty
+    // brick's clear cube crossed at once); either returns true to stop. Returns true if one did.
+    template <class F, class G>
+    bool walk_bricks(const Vec3& o, const Vec3& d, double t0, double t1, F&& f, G&& gap) const {
+        const double oo[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
+        Dda w(oo, dd, t0, t1, lo, bcell, ibcell, nb);
+        const std::ptrdiff_t stride[3] = {std::ptrdiff_t(nb[1]) * nb[2], nb[2], 1};
+        std::ptrdiff_t lin = w.idx[0] * stride[0] + w.idx[1] * stride[1] + w.idx[2];
+        double t = t0;
+        for (;;) {
+            const int r = brick_clear[lin];
+            int a;
+            double tb;
+            if (r > 1) {  // an empty cube of side 2 r - 1: leave it along its first face
+                double te = kInf;
+                a = 0;
+                for (int c = 0; c < 3; ++c) {
+                    if (!w.step[c]) continue;
+                    double tc = w.tnext[c] + (r - 1) * w.tdelta[c];
+                    if (tc < te) { te = tc; a = c; }
+                }
+                tb = std::min(std::max(te, t), t1);
+                if (gap(t, tb)) return true;
+                if (tb >= t1) return false;
+                for (int c = 0; c < 3; ++c) {  // the other axes: their last face before te
+                    if (c == a) continue;
+                    while (w.tnext[c] < te) { w.tnext[c] += w.tdelta[c]; w.idx[c] += w.step[c]; }
+                }
+                w.idx[a] += w.step[a] * (r - 1);
+                w.tnext[a] += (r - 1) * w.tdelta[a];
+            } else {
+                a = w.tnext[0] < w.tnext[1] ? (w.tnext[0] < w.tnext[2] ? 0 : 2) : (w.tnext[1] < w.tnext[2] ? 1 : 2);
+                tb = std::min(std::max(w.tnext[a], t), t1);
+                if (r == 0 ? f(size_t(lin), t, tb) : gap(t, tb)) return true;
+                if (tb >= t1) return false;
+            }
+            t = tb;
+            w.idx[a] += w.step[a];
+            w.tnext[a] += w.tdelta[a];
+            if (unsigned(w.idx[0]) >= unsigned(nb[0]) || unsigned(w.idx[1]) >= unsigned(nb[1]) ||
+                unsigned(w.idx[2]) >= unsigned(nb[2]))
+                return false;
+            lin = w.idx[0] * stride[0] + w.idx[1] * stride[1] + w.idx[2];
+        }
+    }
+
+    // int rho dl along the segment from p0 to p1 (length len): one voxel DDA over the
+    // non-empty voxels' box, in a tight loop per non-empty brick; an empty brick's clear cube
+    // is crossed in one jump. (Walking bricks, then each brick's voxels with a DDA set up per
+    // brick, cost 1.5 times as much: most rays cross only a few voxels of each brick.)
+    double integral(const Vec3& p0, const Vec3& p1, double len) const {
+        constexpr int M = B - 1;
+        if (!(len > 0.0)) return 0.0;
+        const Vec3 dv = (p1 - p0) * (1.0 / len);
+        double t0, t1;
+        if (!clip_occupied(p0, dv, len, &t0, &t1)) return 0.0;
+        const double o[3] = {p0.x, p0.y, p0.z}, d[3] = {dv.x, dv.y, dv.z};
+        Dda w(o, d, t0, t1, lo, cell, icell, n);
+        // The voxel and its next faces as scalars (the compiler keeps them in registers).
+        int i = w.idx[0], j = w.idx[1], k = w.idx[2];
+        const int si = w.step[0], sj = w.step[1], sk = w.step[2];
+        double tx = w.tnext[0], ty = w.tnext[1], tz = w.tnext[2];
+        const double dx = w.tdelta[0], dy = w.tdelta[1], dz = w.tdelta[2];
+        const int ei = si > 0 ? 0 : M, ej = sj > 0 ? 0 : M, ek = sk > 0 ? 0 : M;  // entry faces
+        const std::ptrdiff_t s0 = std::ptrdiff_t(nb[1]) * nb[2], s1 = nb[2];
+        double t = t0, sum = 0.0;
+        for (;;) {
+            const size_t b = (i >> kShift) * s0 + (j >> kShift) * s1 + (k >> kShift);
+            const int32_t slot = brick_slot[b];
+            if (slot < 0) {
+                // An empty brick and its clear cube (radius r): the voxel faces left along each
+                // axis before leaving the cube, where the ray leaves first, and every axis's
+                // voxel there.
+                const int extra = (brick_clear[b] - 1) * B;
+                const int li = (si > 0 ? M - (i & M) : (i & M)) + extra;
+                const int lj = (sj > 0 ? M - (j & M) : (j & M)) + extra;
+                const int lk = (sk > 0 ? M - (k & M) : (k & M)) + extra;
+                int ax = -1;
+                double te = t1;
+                if (si && tx + li * dx < te) { te = tx + li * dx; ax = 0; }
+                if (sj && ty + lj * dy < te) { te = ty + lj * dy; ax = 1; }
+                if (sk && tz + lk * dz < te) { te = tz + lk * dz; ax = 2; }
+                if (ax < 0) return sum;  // the segment ends in the cube
+                if (ax == 0) { i += si * (li + 1); tx += (li + 1) * dx; } else { while (tx < te) { tx += dx; i += si; } }
+                if (ax == 1) { j += sj * (lj + 1); ty += (lj + 1) * dy; } else { while (ty < te) { ty += dy; j += sj; } }
+                if (ax == 2) { k += sk * (lk + 1); tz += (lk + 1) * dz; } else { while (tz < te) { tz += dz; k += sk; } }
+                if (unsigned(i) >= unsigned(n[0]) || unsigned(j) >= unsigned(n[1]) || unsigned(k) >= unsigned(n[2]))
+                    return sum;
+                t = te;
+                continue;
+            }
+            // A non-empty brick: voxel after voxel until the ray leaves it (or the segment ends).
+            const float* v = &bricks[size_t(slot) * B * B * B];
+            for (;;) {
+                const double rho = v[(((i & M) << kShift) + (j & M)) * B + (k & M)];
+                if (tz <= tx && tz <= ty) {
+                    const double tb = std::min(std::max(tz, t), t1);
+                    sum += rho * (tb - t);
+                    if (tb >= t1) return sum;
+                    t = tb; k += sk; tz += dz;
+                    if (unsigned(k) >= unsigned(n[2])) return sum;
+                    if ((k & M) == ek) break;
+                } else if (tx <= ty) {
+                    const double tb = std::min(std::max(tx, t), t1);
+                    sum += rho * (tb - t);
+                    if (tb >= t1) return sum;
+                    t = tb; i += si; tx += dx;
+                    if (unsigned(i) >= unsigned(n[0])) return sum;
+                    if ((i & M) == ei) break;
+                } else {
+                    const double tb = std::min(std::max(ty, t), t1);
+                    sum += rho * (tb - t);
+                    if (tb >= t1) return sum;
+                    t = tb; j += sj; ty += dy;
+                    if (unsigned(j) >= unsigned(n[1])) return sum;
+                    if ((j & M) == ej) break;
+                }
+            }
+        }
+    }
+};
+
+}  // namespace photic
