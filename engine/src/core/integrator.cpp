@@ -8,6 +8,7 @@
 // straight, unrefracted connection exists (vertices in air); otherwise paths find it by
 // escaping into its disk.
 #include <cmath>
+#include <optional>
 #include <thread>
 #include <vector>
 #include "optics.h"
@@ -33,7 +34,7 @@ double max_component(const Spectrum& s, int nb) {
 }  // namespace
 
 void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int medium, Rng& rng,
-                               Spectrum* out) const {
+                               Spectrum* out, double* deferred_t) const {
     // Single scattering of the beams along the water segment [0, T] from o along d, as seen
     // from o: int exp(-c t) sum_beams b p(psi) E dt, estimated with one distance drawn with
     // pdf proportional to exp(-k t), where k follows the integrand: attenuation back to o (c)
@@ -65,7 +66,10 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
     thread_local WaterLayer scratch;  // per thread: its spectra vectors keep their memory
     const WaterLayer& L = w.grid ? w.local(x, &scratch, nbands) : w.layer_at(x.z);
     double att[kMaxBands];
-    if (!w.varying()) {
+    if (deferred_t && w.grid) {
+        *deferred_t = t;
+        for (int kb = 0; kb < nbands; ++kb) att[kb] = 1.0;
+    } else if (!w.varying()) {
         for (int kb = 0; kb < nbands; ++kb) att[kb] = std::exp(-L.c_path.v[kb] * t);
     } else {
         Spectrum tau;
@@ -150,8 +154,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
         for (int k = 1; k < nb; ++k) t = std::min(t, tau_a.v[k]);
         return std::exp(-t);
     };
-    auto travel = [&](const Water& w, const Vec3& from, const Vec3& dir, double t) {  // varying
-        if (w.grid) return w.grid_optical_depth(false, from, from + dir * t, t, nb, &tau_a);
+    auto travel = [&](const Water& w, const Vec3& from, const Vec3& dir, double t) {  // layers
         w.add_optical_depth(&WaterLayer::a, from.z, from.z + dir.z * t, t, nb, &tau_a);
     };
     auto flush = [&](const Water& w) {
@@ -167,6 +170,11 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
     const double cone_x = 1.0 - std::cos(cone_half_angle);
     BeamSample beams[kMaxBeams];
     double bv_weight = first_beam_weight;  // MIS weight of this segment's beam scattering
+    // Gridded water (per segment): the walks along it, and its beam term waiting for them.
+    std::optional<VoxelGrid::Flight> gflight;
+    std::optional<VoxelGrid::Cursor> gcursor;
+    double t_beam = -1.0;
+    Spectrum beam_wait;
 
     for (;;) {
         Hit h;
@@ -183,10 +191,35 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             // or in stratified water each layer's own (regional tracking through the layers).
             int lc = 0;
             double gmaj = 0.0;  // grid: the majorant at the tentative collision
+            // A grid is walked once per segment: bricks for the tentative collisions, voxels for
+            // the density integral (the absorption to the segment's end and the attenuation to
+            // the beam term's point).
+            if (w.grid) {
+                gflight.emplace(*w.grid, o, d, w.layers[0].majorant);
+                gcursor.emplace(*w.grid, o, d);
+            }
             auto flight = [&]() {
                 double xi = -std::log(1.0 - rng.uniform());
-                if (w.grid) return w.grid_flight(o + d * t_cur, d, xi, &gmaj);
+                if (w.grid) return gflight->next(xi, &gmaj) - t_cur;
                 return strat ? w.free_flight(o.z + d.z * t_cur, d.z, xi, &lc) : xi / w.majorant;
+            };
+            // Grid: the beam term of this segment waits for the walk (deferred to its point
+            // t_beam); settle() adds it and the absorption up to t_end (kInf: none needed).
+            t_beam = -1.0;
+            auto settle = [&](double t_end) {
+                if (!w.grid) return;
+                double r_beam = 0.0, r_end = 0.0;
+                const bool end = t_end < kInf;
+                if (t_beam >= 0.0 && (!end || t_beam <= t_end)) r_beam = gcursor->value(t_beam);
+                if (end) r_end = gcursor->value(t_end);
+                if (t_beam > t_end) r_beam = gcursor->value(t_beam);
+                if (t_beam >= 0.0) {
+                    Spectrum tau;
+                    w.grid_tau(true, t_beam, r_beam, nb, &tau);
+                    for (int kb = 0; kb < nb; ++kb) out.beam_volume.v[kb] += beam_wait.v[kb] * std::exp(-tau.v[kb]);
+                    t_beam = -1.0;
+                }
+                if (end) w.grid_tau(false, t_end, r_end, nb, &tau_a);
             };
             if (w.majorant > 0.0) dt = flight();
             if (!hybrid && w.majorant > 0.0) {
@@ -202,9 +235,11 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
 
             if (hybrid && has_beams()) {
                 Spectrum I;
-                beam_scatter_along(o, d, t_hit, medium, rng, &I);
-                for (int kb = 0; kb < nb; ++kb)
-                    out.beam_volume.v[kb] += bv_weight * beta.v[kb] * absorbed(w, kb) * I.v[kb];
+                beam_scatter_along(o, d, t_hit, medium, rng, &I, w.grid ? &t_beam : nullptr);
+                if (w.grid)
+                    for (int kb = 0; kb < nb; ++kb) beam_wait.v[kb] = bv_weight * beta.v[kb] * absorbed(w, kb) * I.v[kb];
+                else
+                    for (int kb = 0; kb < nb; ++kb) out.beam_volume.v[kb] += bv_weight * beta.v[kb] * absorbed(w, kb) * I.v[kb];
             }
             bv_weight = 1.0;
 
@@ -221,7 +256,10 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     num += beta.v[k] * (L->b_path.v[k] / maj);
                     den += beta.v[k];
                 }
-                if (!(den > 0.0)) return out;
+                if (!(den > 0.0)) {
+                    settle(kInf);
+                    return out;
+                }
                 double p_real = num / den;
                 if (p_real >= 1.0 || rng.uniform() < p_real) {
                     for (int k = 0; k < nb; ++k) beta.v[k] *= (L->b_path.v[k] / maj) / p_real;
@@ -239,8 +277,9 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 dt = flight();
             }
             if (scattered) {
+                settle(t_cur);
                 if (++depth > max_depth) return out;
-                if (strat) travel(w, o, d, t_cur);
+                if (w.stratified()) travel(w, o, d, t_cur);
                 o = o + d * t_cur;
                 // Choose a mixture component by its throughput-weighted share of scattering,
                 // sample it (outside the forward cone), and weight each band by its own
@@ -328,8 +367,9 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 }
                 continue;
             }
+            settle(h.valid ? t_hit : kInf);
             if (!h.valid) return out;  // lost in infinitely deep water
-            if (strat) travel(w, o, d, t_hit);
+            if (w.stratified()) travel(w, o, d, t_hit);
             else pending += t_hit - t_cur;
         } else {
             h = intersect(o, d);

@@ -96,47 +96,16 @@ struct Water {
             }
         return *scratch;
     }
-    // Grid: regional delta tracking over the bricks (base majorant outside the box); the
-    // distance at which the majorants' optical depth reaches xi and the majorant there.
-    double grid_flight(const Vec3& o, const Vec3& d, double xi, double* maj) const {
-        // Outside the non-empty voxels' box and in empty bricks: the base majorant m0
-        // (an empty brick's majorant is m0 as well).
-        const double m0 = layers[0].majorant;
-        double t0, t1;
-        if (!grid->clip_occupied(o, d, kInf, &t0, &t1)) {
-            *maj = m0;
-            return m0 > 0.0 ? xi / m0 : kInf;
-        }
-        if (m0 > 0.0 && xi < m0 * t0) {
-            *maj = m0;
-            return xi / m0;
-        }
-        xi -= m0 * t0;
-        double res = kInf;
-        auto region = [&](double m, double ta, double tb) {
-            if (m > 0.0 && xi < m * (tb - ta)) {
-                res = ta + xi / m;
-                *maj = m;
-                return true;
-            }
-            xi -= m * (tb - ta);
-            return false;
-        };
-        grid->walk_bricks(o, d, t0, t1, [&](size_t b, double ta, double tb) { return region(grid->brick_maj[b], ta, tb); },
-                          [&](double ta, double tb) { return region(m0, ta, tb); });
-        if (res < kInf) return res;
-        *maj = m0;
-        return m0 > 0.0 ? t1 + std::max(0.0, xi) / m0 : kInf;
-    }
     // Grid: adds the optical depth of the absorption (attenuation = false) or of a + b_path
     // (c_path = c_beam) along the segment p0 -> p1 of length len, per band.
     void grid_optical_depth(bool attenuation, const Vec3& p0, const Vec3& p1, double len, int nb,
                             Spectrum* tau) const {
-        const WaterLayer& B = layers[0];
-        const WaterLayer& U = grid_unit;
-        double r = grid->integral(p0, p1, len);
-        const Spectrum& cb = attenuation ? B.c_path : B.a;
-        const Spectrum& cu = attenuation ? U.c_path : U.a;
+        grid_tau(attenuation, len, grid->integral(p0, p1, len), nb, tau);
+    }
+    // The same for a segment of length len over which the density integrates to r.
+    void grid_tau(bool attenuation, double len, double r, int nb, Spectrum* tau) const {
+        const Spectrum& cb = attenuation ? layers[0].c_path : layers[0].a;
+        const Spectrum& cu = attenuation ? grid_unit.c_path : grid_unit.a;
         for (int k = 0; k < nb; ++k) tau->v[k] += cb.v[k] * len + cu.v[k] * r;
     }
     const WaterLayer& layer_at(double z) const { return layers[layer_index(z)]; }
@@ -375,7 +344,10 @@ public:
     bool has_beams() const { return flat_beam || !prisms.empty(); }
     // Beam single scattering seen from o along d over [0, T] in water `medium` (per band,
     // without the throughput), one distance sample.
-    void beam_scatter_along(const Vec3& o, const Vec3& d, double T, int medium, Rng& rng, Spectrum* out) const;
+    // deferred_t: in gridded water, the attenuation from o to the point drawn is left out and
+    // that point's distance stored here, for a caller who walks the segment anyway.
+    void beam_scatter_along(const Vec3& o, const Vec3& d, double T, int medium, Rng& rng, Spectrum* out,
+                            double* deferred_t = nullptr) const;
     bool strongest_beam(const Vec3& x, int medium, Vec3* d) const;
     // The second strategy of the beam-scattering MIS: look directions drawn from the water's
     // phase function around the beam's reverse direction (the forward peak of natural waters).

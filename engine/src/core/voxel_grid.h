@@ -180,8 +180,9 @@ struct VoxelGrid {
     // corner org): the first cell from a point just inside the segment (robust at faces),
     // then one face at a time. No divisions after the set-up.
     struct Dda {
-        int idx[3], step[3];
-        double tnext[3], tdelta[3];
+        int idx[3] = {0, 0, 0}, step[3] = {0, 0, 0};
+        double tnext[3] = {kInf, kInf, kInf}, tdelta[3] = {kInf, kInf, kInf};
+        Dda() = default;
         Dda(const double* o, const double* d, double t0, double t1, const double* org,
             const double* cs, const double* ics, const int* m) {
             const double tm = 0.5 * (t0 + std::min(t1, t0 + 1e-9 * (1.0 + t1 - t0)));
@@ -253,80 +254,204 @@ struct VoxelGrid {
         }
     }
 
-    // int rho dl along the segment from p0 to p1 (length len): one voxel DDA over the
-    // non-empty voxels' box, in a tight loop per non-empty brick; an empty brick's clear cube
-    // is crossed in one jump. (Walking bricks, then each brick's voxels with a DDA set up per
-    // brick, cost 1.5 times as much: most rays cross only a few voxels of each brick.)
+    // The integral of rho along the ray o + d t from t = 0, walked once however often it is
+    // asked: value(t) for increasing t continues the walk where the last call stopped. One
+    // voxel DDA over the non-empty voxels' box, in a tight loop per non-empty brick; an empty
+    // brick's clear cube is crossed in one jump. (Walking bricks, then each brick's voxels
+    // with a DDA set up per brick, cost 1.5 times as much: most rays cross only a few voxels
+    // of each brick.)
+    class Cursor {
+     public:
+        Cursor(const VoxelGrid& g, const Vec3& o, const Vec3& d) : g_(&g) {
+            double t0, t1;
+            if (!g.clip_occupied(o, d, kInf, &t0, &t1)) return;
+            const double oo[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
+            const Dda w(oo, dd, t0, t1, g.lo, g.cell, g.icell, g.n);
+            i_ = w.idx[0]; j_ = w.idx[1]; k_ = w.idx[2];
+            si_ = w.step[0]; sj_ = w.step[1]; sk_ = w.step[2];
+            tx_ = w.tnext[0]; ty_ = w.tnext[1]; tz_ = w.tnext[2];
+            dx_ = w.tdelta[0]; dy_ = w.tdelta[1]; dz_ = w.tdelta[2];
+            t_ = t0;
+            t1_ = t1;
+            live_ = true;
+        }
+        // int_0^t rho(o + d s) ds, for t at or beyond the last call's (else that one's value).
+        double value(double t) {
+            if (live_ && t > t_) walk(std::min(t, t1_));
+            return sum_;
+        }
+
+     private:
+        void walk(double te);
+        const VoxelGrid* g_;
+        bool live_ = false;  // false: no density (left) on this ray
+        int i_ = 0, j_ = 0, k_ = 0, si_ = 0, sj_ = 0, sk_ = 0;
+        double tx_ = 0, ty_ = 0, tz_ = 0, dx_ = 0, dy_ = 0, dz_ = 0;
+        double t_ = 0.0, t1_ = 0.0, sum_ = 0.0;
+    };
+
+    // int rho dl along the segment from p0 to p1 (length len).
     double integral(const Vec3& p0, const Vec3& p1, double len) const {
-        constexpr int M = B - 1;
         if (!(len > 0.0)) return 0.0;
-        const Vec3 dv = (p1 - p0) * (1.0 / len);
-        double t0, t1;
-        if (!clip_occupied(p0, dv, len, &t0, &t1)) return 0.0;
-        const double o[3] = {p0.x, p0.y, p0.z}, d[3] = {dv.x, dv.y, dv.z};
-        Dda w(o, d, t0, t1, lo, cell, icell, n);
-        // The voxel and its next faces as scalars (the compiler keeps them in registers).
-        int i = w.idx[0], j = w.idx[1], k = w.idx[2];
-        const int si = w.step[0], sj = w.step[1], sk = w.step[2];
-        double tx = w.tnext[0], ty = w.tnext[1], tz = w.tnext[2];
-        const double dx = w.tdelta[0], dy = w.tdelta[1], dz = w.tdelta[2];
-        const int ei = si > 0 ? 0 : M, ej = sj > 0 ? 0 : M, ek = sk > 0 ? 0 : M;  // entry faces
-        const std::ptrdiff_t s0 = std::ptrdiff_t(nb[1]) * nb[2], s1 = nb[2];
-        double t = t0, sum = 0.0;
-        for (;;) {
-            const size_t b = (i >> kShift) * s0 + (j >> kShift) * s1 + (k >> kShift);
-            const int32_t slot = brick_slot[b];
-            if (slot < 0) {
-                // An empty brick and its clear cube (radius r): the voxel faces left along each
-                // axis before leaving the cube, where the ray leaves first, and every axis's
-                // voxel there.
-                const int extra = (brick_clear[b] - 1) * B;
-                const int li = (si > 0 ? M - (i & M) : (i & M)) + extra;
-                const int lj = (sj > 0 ? M - (j & M) : (j & M)) + extra;
-                const int lk = (sk > 0 ? M - (k & M) : (k & M)) + extra;
-                int ax = -1;
-                double te = t1;
-                if (si && tx + li * dx < te) { te = tx + li * dx; ax = 0; }
-                if (sj && ty + lj * dy < te) { te = ty + lj * dy; ax = 1; }
-                if (sk && tz + lk * dz < te) { te = tz + lk * dz; ax = 2; }
-                if (ax < 0) return sum;  // the segment ends in the cube
-                if (ax == 0) { i += si * (li + 1); tx += (li + 1) * dx; } else { while (tx < te) { tx += dx; i += si; } }
-                if (ax == 1) { j += sj * (lj + 1); ty += (lj + 1) * dy; } else { while (ty < te) { ty += dy; j += sj; } }
-                if (ax == 2) { k += sk * (lk + 1); tz += (lk + 1) * dz; } else { while (tz < te) { tz += dz; k += sk; } }
-                if (unsigned(i) >= unsigned(n[0]) || unsigned(j) >= unsigned(n[1]) || unsigned(k) >= unsigned(n[2]))
-                    return sum;
-                t = te;
-                continue;
-            }
-            // A non-empty brick: voxel after voxel until the ray leaves it (or the segment ends).
-            const float* v = &bricks[size_t(slot) * B * B * B];
+        return Cursor(*this, p0, (p1 - p0) * (1.0 / len)).value(len);
+    }
+
+    // Regional delta tracking along o + d t: the tentative collisions drawn against the
+    // bricks' majorants (m0, the base water's, in empty bricks and outside the non-empty
+    // voxels' box), one after the other, each brick stepped over once.
+    class Flight {
+     public:
+        Flight(const VoxelGrid& g, const Vec3& o, const Vec3& d, double m0) : g_(&g), m0_(m0) {
+            double t0, t1;
+            maj_ = m0;
+            if (!g.clip_occupied(o, d, kInf, &t0, &t1)) return;  // base water all along
+            const double oo[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
+            w_ = Dda(oo, dd, t0, t1, g.lo, g.bcell, g.ibcell, g.nb);
+            end_ = t0;   // the base water up to the box, then the bricks
+            t1_ = t1;
+            in_box_ = true;
+        }
+        // The next tentative collision's distance (kInf if none) for an Exp(1) sample xi, and
+        // the majorant there.
+        double next(double xi, double* maj) {
             for (;;) {
-                const double rho = v[(((i & M) << kShift) + (j & M)) * B + (k & M)];
-                if (tz <= tx && tz <= ty) {
-                    const double tb = std::min(std::max(tz, t), t1);
-                    sum += rho * (tb - t);
-                    if (tb >= t1) return sum;
-                    t = tb; k += sk; tz += dz;
-                    if (unsigned(k) >= unsigned(n[2])) return sum;
-                    if ((k & M) == ek) break;
-                } else if (tx <= ty) {
-                    const double tb = std::min(std::max(tx, t), t1);
-                    sum += rho * (tb - t);
-                    if (tb >= t1) return sum;
-                    t = tb; i += si; tx += dx;
-                    if (unsigned(i) >= unsigned(n[0])) return sum;
-                    if ((i & M) == ei) break;
-                } else {
-                    const double tb = std::min(std::max(ty, t), t1);
-                    sum += rho * (tb - t);
-                    if (tb >= t1) return sum;
-                    t = tb; j += sj; ty += dy;
-                    if (unsigned(j) >= unsigned(n[1])) return sum;
-                    if ((j & M) == ej) break;
+                const double room = maj_ * (end_ - t_);
+                if (maj_ > 0.0 && xi < room) {
+                    t_ += xi / maj_;
+                    *maj = maj_;
+                    return t_;
                 }
+                if (end_ >= kInf) return kInf;
+                xi -= room;
+                t_ = end_;
+                advance();
             }
         }
-    }
+
+     private:
+        void advance();
+        const VoxelGrid* g_;
+        double m0_;
+        Dda w_{};
+        double t_ = 0.0, end_ = kInf, maj_ = 0.0, t1_ = 0.0;
+        bool in_box_ = false, started_ = false;
+        int jump_axis_ = -1, jump_ = 0;  // the step the current region ends with
+    };
 };
+
+inline void VoxelGrid::Cursor::walk(double te) {
+    constexpr int M = B - 1;
+    const VoxelGrid& g = *g_;
+    // The state as locals (kept in registers in the loops), written back on the way out.
+    int i = i_, j = j_, k = k_;
+    const int si = si_, sj = sj_, sk = sk_;
+    double tx = tx_, ty = ty_, tz = tz_, t = t_, sum = sum_;
+    const double dx = dx_, dy = dy_, dz = dz_;
+    const int ei = si > 0 ? 0 : M, ej = sj > 0 ? 0 : M, ek = sk > 0 ? 0 : M;  // entry faces
+    const std::ptrdiff_t s0 = std::ptrdiff_t(g.nb[1]) * g.nb[2], s1 = g.nb[2];
+    bool live = true;
+    for (;;) {
+        const size_t b = (i >> kShift) * s0 + (j >> kShift) * s1 + (k >> kShift);
+        const int32_t slot = g.brick_slot[b];
+        if (slot < 0) {
+            // An empty brick and its clear cube (radius r): the voxel faces left along each
+            // axis before leaving the cube, where the ray leaves first, and every axis's voxel
+            // there.
+            const int extra = (g.brick_clear[b] - 1) * B;
+            const int li = (si > 0 ? M - (i & M) : (i & M)) + extra;
+            const int lj = (sj > 0 ? M - (j & M) : (j & M)) + extra;
+            const int lk = (sk > 0 ? M - (k & M) : (k & M)) + extra;
+            int ax = -1;
+            double tc = te;
+            if (si && tx + li * dx < tc) { tc = tx + li * dx; ax = 0; }
+            if (sj && ty + lj * dy < tc) { tc = ty + lj * dy; ax = 1; }
+            if (sk && tz + lk * dz < tc) { tc = tz + lk * dz; ax = 2; }
+            if (ax < 0) { t = te; break; }  // the walk stops in the cube
+            if (ax == 0) { i += si * (li + 1); tx += (li + 1) * dx; } else { while (tx < tc) { tx += dx; i += si; } }
+            if (ax == 1) { j += sj * (lj + 1); ty += (lj + 1) * dy; } else { while (ty < tc) { ty += dy; j += sj; } }
+            if (ax == 2) { k += sk * (lk + 1); tz += (lk + 1) * dz; } else { while (tz < tc) { tz += dz; k += sk; } }
+            t = tc;
+            if (unsigned(i) >= unsigned(g.n[0]) || unsigned(j) >= unsigned(g.n[1]) || unsigned(k) >= unsigned(g.n[2])) {
+                live = false;
+                break;
+            }
+            continue;
+        }
+        // A non-empty brick: voxel after voxel until the ray leaves it or the walk stops.
+        const float* v = &g.bricks[size_t(slot) * B * B * B];
+        bool stop = false;
+        for (;;) {
+            const double rho = v[(((i & M) << kShift) + (j & M)) * B + (k & M)];
+            if (tz <= tx && tz <= ty) {
+                if (tz >= te) { sum += rho * (te - t); t = te; stop = true; break; }
+                sum += rho * (tz - t);
+                t = tz; k += sk; tz += dz;
+                if (unsigned(k) >= unsigned(g.n[2])) { live = false; stop = true; break; }
+                if ((k & M) == ek) break;
+            } else if (tx <= ty) {
+                if (tx >= te) { sum += rho * (te - t); t = te; stop = true; break; }
+                sum += rho * (tx - t);
+                t = tx; i += si; tx += dx;
+                if (unsigned(i) >= unsigned(g.n[0])) { live = false; stop = true; break; }
+                if ((i & M) == ei) break;
+            } else {
+                if (ty >= te) { sum += rho * (te - t); t = te; stop = true; break; }
+                sum += rho * (ty - t);
+                t = ty; j += sj; ty += dy;
+                if (unsigned(j) >= unsigned(g.n[1])) { live = false; stop = true; break; }
+                if ((j & M) == ej) break;
+            }
+        }
+        if (stop) break;
+    }
+    i_ = i; j_ = j; k_ = k;
+    tx_ = tx; ty_ = ty; tz_ = tz;
+    t_ = t;
+    sum_ = sum;
+    live_ = live && t < t1_;
+}
+
+inline void VoxelGrid::Flight::advance() {
+    // The region that starts at end_: the first brick (entering the box), the next brick or
+    // clear cube, or the base water beyond the box.
+    const VoxelGrid& g = *g_;
+    if (!in_box_) {
+        maj_ = m0_;
+        end_ = kInf;
+        return;
+    }
+    if (started_) {  // step past the region that just ended
+        const int a = jump_axis_;
+        w_.idx[a] += w_.step[a] * jump_;
+        w_.tnext[a] += jump_ * w_.tdelta[a];
+        if (end_ >= t1_ || unsigned(w_.idx[0]) >= unsigned(g.nb[0]) ||
+            unsigned(w_.idx[1]) >= unsigned(g.nb[1]) || unsigned(w_.idx[2]) >= unsigned(g.nb[2])) {
+            in_box_ = false;
+            maj_ = m0_;
+            end_ = kInf;
+            return;
+        }
+    }
+    started_ = true;
+    const size_t b = (size_t(w_.idx[0]) * g.nb[1] + w_.idx[1]) * g.nb[2] + w_.idx[2];
+    const int r = g.brick_clear[b];
+    const int extra = r > 1 ? r - 1 : 0;  // a clear cube reaches r - 1 bricks further
+    double te = kInf;
+    int a = 0;
+    for (int c = 0; c < 3; ++c) {
+        if (!w_.step[c]) continue;
+        const double tc = w_.tnext[c] + extra * w_.tdelta[c];
+        if (tc < te) { te = tc; a = c; }
+    }
+    if (extra > 0)  // the other axes: their last face before the cube's exit
+        for (int c = 0; c < 3; ++c) {
+            if (c == a) continue;
+            while (w_.tnext[c] < te) { w_.tnext[c] += w_.tdelta[c]; w_.idx[c] += w_.step[c]; }
+        }
+    jump_axis_ = a;
+    jump_ = extra + 1;
+    maj_ = r == 0 ? g.brick_maj[b] : m0_;
+    end_ = std::max(t_, std::min(te, t1_));
+}
 
 }  // namespace photic
