@@ -278,12 +278,15 @@ def _on_face(p0, p1, lo, cell):
     return False
 
 
+SMALL_SUN = 0.002
+
+
 @pytest.mark.parametrize("field", ["dense 4x5x6", "sparse 37x29x45"])
 def test_sun_through_absorbing_3d_field(field):
-    """A small sun (0.05 deg) at 35 deg, b = 0, random absorbing densities (in 4 x 5 x 6
+    """A small sun (0.002 deg) at 35 deg, b = 0, random absorbing densities (in 4 x 5 x 6
     voxels, or sparse in several bricks): Ed at three points equals the disk quadrature with
-    the optical depth integrated in numpy along the refracted ray (1e4 midpoints through the
-    voxels, density_at), to 1e-3 (a deterministic estimate: no scattering, one refracted path
+    the optical depth integrated in numpy along the refracted ray (cut at every voxel face), to
+    1e-3 (a deterministic estimate: no scattering, one refracted path
     per sample)."""
     import math
     from test_stratified import refracted_sun
@@ -293,12 +296,17 @@ def test_sun_through_absorbing_3d_field(field):
     del d["water"][0]["iops"]
     d["water"][0]["iop_grid"] = grid(mixture(0.05, 0.0, 0.0), mixture(0.3, 0.0, 0.0), rho, box)
     points = [(0.3, -0.2, -1.0), (-0.5, 0.7, -2.5), (0.9, 0.1, -3.7)]
-    if field.startswith("sparse"):  # rays through either blob, and one through neither
-        points = [(-1.0, -1.1, -1.5), (0.5, 1.2, -3.0), (-1.2, 0.0, -3.9)]
+    if field.startswith("sparse"):  # rays through either blob, one through neither, and more
+        rng = np.random.default_rng(5)  # (bricks whose sunward rays miss every blob need no walk)
+        points = [(-1.0, -1.1, -1.5), (0.5, 1.2, -3.0), (-1.2, 0.0, -3.9)] + [
+            tuple(p) for p in np.column_stack([rng.uniform(-1.4, 1.4, 40), rng.uniform(-1.9, 1.9, 40),
+                                               rng.uniform(-3.95, -0.05, 40)])]
     d["radiometers"] = [{"name": f"Ed_{i}", "quantity": "Ed", "position": list(p)}
                         for i, p in enumerate(points)]
+    # a sun of 0.002 deg: its rays to a point spread by 0.1 mm over 5 m, so that a point whose
+    # ray grazes a voxel's edge sees one optical depth (the passes draw a few directions)
     d["sun"] = {"zenith_deg": 35.0, "azimuth_deg": 20.0, "irradiance": [1.0],
-                "angular_diameter_deg": 0.05}
+                "angular_diameter_deg": SMALL_SUN}
     d["sky"] = {"type": "black"}
     sc = Scene.from_dict(d)
     res = render(sc, radiometer_samples=4_000)
@@ -309,15 +317,52 @@ def test_sun_through_absorbing_3d_field(field):
     up = np.array([sin_w * math.cos(phi), sin_w * math.sin(phi), mu_w])  # towards the sun
     for i, p in enumerate(points):
         length = -p[2] / mu_w
-        s = (np.arange(10_000) + 0.5) * length / 10_000
-        dens = sum(g.density_at(np.asarray(p) + up * t) for t in s) / s.size
+        dens = _exact_integral(rho, box[0], box[1], np.asarray(p), np.asarray(p) + up * length) / length
         # the vertical-depth form of refracted_sun: tau_vertical = tau_along_ray * mu_w
         tau = (0.05 + 0.3 * dens) * length * mu_w
-        ref = refracted_sun(35.0, tau, diameter_deg=0.05)
+        ref = refracted_sun(35.0, tau, diameter_deg=SMALL_SUN)
         if field.startswith("sparse") and i < 2:
             assert dens > 0.2  # the ray does cross a blob
         r = res.radiometer(f"Ed_{i}")
         assert abs(r.mean[0, 0] / ref - 1) < 1e-3  # deterministic: the reference's quadrature
+
+
+@pytest.mark.parametrize("azimuth", [0.0, 90.0, 225.0])
+def test_slanted_sun_shadow_of_a_thin_slab(azimuth):
+    """A low sun (70 deg; 44.5 deg in water) over a thin absorbing slab 0.5 m thick near the
+    surface, points 3 m below and up to 3 bricks away sideways: the sunward rays reach the slab
+    through the sides of empty bricks (the bricks that need a walk are found per beam), Ed to
+    1e-3 of the numpy optical depth; the points in its shadow and beside it."""
+    from test_stratified import refracted_sun
+    rho = np.zeros((64, 64, 32))
+    rho[30:34, 30:34, 24:28] = 2.0  # x, y in [-0.5, 0.5], z in [-1.0, -0.5]
+    box = ([-8.0, -8.0, -4.0], [16.0, 16.0, 4.0])
+    d = sea([rad("Ed", 1.0)], iops=mixture(0.05, 0.0, 0.0)).to_dict()
+    del d["water"][0]["iops"]
+    d["water"][0]["iop_grid"] = grid(mixture(0.05, 0.0, 0.0), mixture(0.3, 0.0, 0.0), rho, box)
+    sin_w = math.sin(math.radians(70.0)) / N_W
+    mu_w = math.sqrt(1 - sin_w ** 2)
+    phi = math.radians(azimuth)
+    up = np.array([sin_w * math.cos(phi), sin_w * math.sin(phi), mu_w])
+    # points whose rays cross the slab's centre (and 0.4 m to either side) from 3.5 m deep
+    reach = (3.5 - 0.75) / mu_w
+    centre = np.array([0.0, 0.0, -0.75]) - up * reach
+    side = np.array([-math.sin(phi), math.cos(phi), 0.0])
+    points = [centre + side * s for s in (-0.8, -0.4, 0.0, 0.4, 0.8)]
+    d["radiometers"] = [{"name": f"Ed_{i}", "quantity": "Ed", "position": list(p)}
+                        for i, p in enumerate(points)]
+    d["sun"] = {"zenith_deg": 70.0, "azimuth_deg": azimuth, "irradiance": [1.0],
+                "angular_diameter_deg": SMALL_SUN}
+    d["sky"] = {"type": "black"}
+    res = render(Scene.from_dict(d), radiometer_samples=2_000)
+    crossed = 0
+    for i, p in enumerate(points):
+        length = -p[2] / mu_w
+        r = _exact_integral(rho, box[0], box[1], p, p + up * length)
+        crossed += r > 0.5
+        ref = refracted_sun(70.0, (0.05 * length + 0.3 * r) * mu_w, diameter_deg=SMALL_SUN)
+        assert res.radiometer(f"Ed_{i}").mean[0, 0] == pytest.approx(ref, rel=1e-3)
+    assert crossed == 3
 
 
 # --------------------------------------------------------------------------------------

@@ -141,6 +141,7 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
     flat_beam = false;
     flat_d.clear();
     flat_e0.clear();
+    flat_shade.clear();
     grid_ = BeamGrid();
     if (!has_sun) return;
     const Vec3 s = normalize(sun_direction);
@@ -194,6 +195,10 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             flat_e0.push_back(e0);
         }
         flat_beam = !flat_d.empty();
+        if (w.grid) {
+            flat_shade.resize(flat_d.size());
+            for (size_t i = 0; i < flat_d.size(); ++i) w.grid->shade_bricks(-flat_d[i], &flat_shade[i]);
+        }
     }
 
     // Source triangles: the ocean patch (the given vertex normals, or shared vertex normals
@@ -543,8 +548,13 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool ex
                     for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * std::exp(-c.v[k] * l);
                 } else {  // exp(-int c_beam dl) from the surface down through the layers
                     Spectrum tau;
-                    if (w.grid) w.grid_optical_depth(true, x - fd * l, x, l, nbands, &tau);
-                    else w.add_optical_depth(&WaterLayer::c_beam, ocean_z, x.z, l, nbands, &tau);
+                    if (w.grid) {
+                        const std::ptrdiff_t b = w.grid->brick_at(x);
+                        const bool clear = b >= 0 && i < flat_shade.size() && !flat_shade[i][b];
+                        w.grid_tau(true, l, clear ? 0.0 : w.grid->integral(x - fd * l, x, l), nbands, &tau);
+                    } else {
+                        w.add_optical_depth(&WaterLayer::c_beam, ocean_z, x.z, l, nbands, &tau);
+                    }
                     for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * std::exp(-tau.v[k]);
                 }
                 ++n;

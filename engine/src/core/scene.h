@@ -304,6 +304,9 @@ public:
     // beam for a smooth surface, kRoughFlatBeams facets (stratified) for a rough one.
     std::vector<Vec3> flat_d;
     std::vector<Spectrum> flat_e0;
+    // Gridded ocean water: per flat beam, the grid's bricks whose sunward rays may cross
+    // non-empty ones (VoxelGrid::shade_bricks); elsewhere a beam needs no walk.
+    std::vector<std::vector<uint8_t>> flat_shade;
     Vec3 beam_sun_dir{0, 0, 1};
     double beam_mu_w = 1.0;           // cosine of the refracted sun's zenith angle in water
 

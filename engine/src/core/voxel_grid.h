@@ -152,6 +152,44 @@ struct VoxelGrid {
         return bricks[size_t(slot) * B * B * B + (((idx[0] & M) * B + (idx[1] & M)) * B + (idx[2] & M))];
     }
 
+    // The brick holding p, or -1 outside the box.
+    std::ptrdiff_t brick_at(const Vec3& p) const {
+        const double q[3] = {p.x, p.y, p.z};
+        int idx[3];
+        for (int a = 0; a < 3; ++a) {
+            if (!(q[a] >= lo[a] && q[a] <= hi[a])) return -1;
+            idx[a] = std::min(nb[a] - 1, std::max(0, int((q[a] - lo[a]) * ibcell[a])));
+        }
+        return (std::ptrdiff_t(idx[0]) * nb[1] + idx[1]) * nb[2] + idx[2];
+    }
+    // Per brick: 0 if no ray from a point in it along `up` (up.z > 0) crosses a non-empty
+    // brick, else 1 (conservative). A ray leaves a brick through its top or the sides `up`
+    // points to, so a brick is shaded if it or one of those neighbours is (an edge or a
+    // corner is reached through them too); computed from the top down, the neighbours first.
+    void shade_bricks(const Vec3& up, std::vector<uint8_t>* shade) const {
+        shade->assign(brick_slot.size(), 0);
+        const int sx = up.x > 0.0 ? 1 : up.x < 0.0 ? -1 : 0, sy = up.y > 0.0 ? 1 : up.y < 0.0 ? -1 : 0;
+        const int sz = up.z > 0.0 ? 1 : up.z < 0.0 ? -1 : 0;
+        auto index = [&](int i, int j, int k) { return (size_t(i) * nb[1] + j) * nb[2] + k; };
+        auto lit = [&](int i, int j, int k) {  // outside the grid: no density
+            return i < 0 || j < 0 || k < 0 || i >= nb[0] || j >= nb[1] || k >= nb[2] || !(*shade)[index(i, j, k)];
+        };
+        for (int kk = 0; kk < nb[2]; ++kk) {
+            const int k = sz > 0 ? nb[2] - 1 - kk : kk;
+            for (int ii = 0; ii < nb[0]; ++ii) {
+                const int i = sx > 0 ? nb[0] - 1 - ii : ii;
+                for (int jj = 0; jj < nb[1]; ++jj) {
+                    const int j = sy > 0 ? nb[1] - 1 - jj : jj;
+                    bool s = brick_slot[index(i, j, k)] >= 0;
+                    if (!s && sz) s = !lit(i, j, k + sz);
+                    if (!s && sx) s = !lit(i + sx, j, k);
+                    if (!s && sy) s = !lit(i, j + sy, k);
+                    (*shade)[index(i, j, k)] = s;
+                }
+            }
+        }
+    }
+
     // The part [t0, t1] of o + d t, t in [0, tmax], inside the box [blo, bhi]; false if none.
     static bool clip(const double* blo, const double* bhi, const Vec3& o, const Vec3& d,
                      double tmax, double* t0, double* t1) {
