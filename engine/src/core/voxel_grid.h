@@ -52,15 +52,21 @@ struct VoxelGrid {
             icell[a] = 1.0 / cell[a];
             ibcell[a] = 1.0 / bcell[a];
         }
+        // One pass over the densities: each brick gets its block when its first non-zero
+        // voxel is met.
         const size_t nbricks = size_t(nb[0]) * nb[1] * nb[2];
+        constexpr int M = B - 1;
         brick_max.assign(nbricks, 0.f);
+        brick_slot.assign(nbricks, -1);
+        bricks.clear();
         rho_min = rho[0];
         rho_max = rho[0];
         int first[3] = {n[0], n[1], n[2]}, last[3] = {-1, -1, -1};
         const float* r = rho;
         for (int i = 0; i < n[0]; ++i)
             for (int j = 0; j < n[1]; ++j) {
-                float* row_max = &brick_max[(size_t(i >> kShift) * nb[1] + (j >> kShift)) * nb[2]];
+                const size_t row = (size_t(i >> kShift) * nb[1] + (j >> kShift)) * nb[2];
+                const int local_ij = ((i & M) * B + (j & M)) * B;
                 int kfirst = -1, klast = -1;
                 for (int k = 0; k < n[2]; ++k, ++r) {
                     const float v = *r;
@@ -68,32 +74,23 @@ struct VoxelGrid {
                         throw std::invalid_argument("densities must be finite and >= 0");
                     rho_min = std::min(rho_min, v);
                     rho_max = std::max(rho_max, v);
-                    if (v > 0.f) {
-                        float& m = row_max[k >> kShift];
-                        m = std::max(m, v);
-                        if (kfirst < 0) kfirst = k;
-                        klast = k;
+                    if (!(v > 0.f)) continue;
+                    const size_t b = row + (k >> kShift);
+                    if (brick_slot[b] < 0) {
+                        brick_slot[b] = int32_t(bricks.size() / (B * B * B));
+                        bricks.resize(bricks.size() + B * B * B, 0.f);
                     }
+                    bricks[size_t(brick_slot[b]) * B * B * B + local_ij + (k & M)] = v;
+                    brick_max[b] = std::max(brick_max[b], v);
+                    if (kfirst < 0) kfirst = k;
+                    klast = k;
                 }
                 if (kfirst < 0) continue;
                 first[0] = std::min(first[0], i); last[0] = std::max(last[0], i);
                 first[1] = std::min(first[1], j); last[1] = std::max(last[1], j);
                 first[2] = std::min(first[2], kfirst); last[2] = std::max(last[2], klast);
             }
-        brick_slot.assign(nbricks, -1);
-        size_t used = 0;
-        for (size_t b = 0; b < nbricks; ++b)
-            if (brick_max[b] > 0.f) brick_slot[b] = int32_t(used++);
-        bricks.assign(used * B * B * B, 0.f);
-        r = rho;
-        for (int i = 0; i < n[0]; ++i)
-            for (int j = 0; j < n[1]; ++j)
-                for (int k = 0; k < n[2]; ++k, ++r) {
-                    if (!(*r > 0.f)) continue;
-                    size_t b = (size_t(i >> kShift) * nb[1] + (j >> kShift)) * nb[2] + (k >> kShift);
-                    bricks[size_t(brick_slot[b]) * B * B * B +
-                           (((i & (B - 1)) * B + (j & (B - 1))) * B + (k & (B - 1)))] = *r;
-                }
+        bricks.shrink_to_fit();
         occupied = last[0] >= 0;
         for (int a = 0; a < 3 && occupied; ++a) {
             // The faces of the first and last non-empty voxels; inside the grid widened by a

@@ -1074,9 +1074,10 @@ def _validate_grid(label: str, grid: IOPGrid, nbands: int) -> None:
         shape = f"shape {d.shape}" if isinstance(d, np.ndarray) else _show(d)
         raise SceneError(label, "iop_grid.density", f"must be a non-empty 3-D array of numbers "
                                                     f"(nx, ny, nz), got {shape}")
-    bad = np.argwhere(~(np.isfinite(d) & (d >= 0)))
-    if bad.size:
-        i = tuple(int(x) for x in bad[0])
+    # min and max pass over the array without temporaries (a NaN makes both NaN); only a bad
+    # array is searched for its first bad voxel
+    if d.size and not (d.min() >= 0 and np.isfinite(d.max())):
+        i = tuple(int(x) for x in np.argwhere(~(np.isfinite(d) & (d >= 0)))[0])
         raise SceneError(label, f"iop_grid.density{list(i)}", f"must be finite and >= 0, got "
                                                              f"{_num(float(d[i]))}")
 
