@@ -35,9 +35,10 @@ struct SourceTri {
 
 }  // namespace
 
-// A grid's unit coefficients with the forward cone's f, its bricks' majorants, and the water's
-// bounds (majorant, smallest beam attenuation, beam-scattering rate, MIS weights) widened to
-// every density in the grid. c(x) = c_base + rho c_unit with rho >= 0 and c_unit >= 0.
+// A grid's unit coefficients with the forward cone's f, the free paths' majorant s0 + s1 rho,
+// and the water's bounds (majorant, smallest beam attenuation, beam-scattering rate, MIS
+// weights) widened to every density in the grid. c(x) = c_base + rho c_unit with rho >= 0 and
+// c_unit >= 0.
 void Scene::set_grid_coefficients(Water& w) const {
     VoxelGrid& g = *w.grid;
     WaterLayer& U = w.grid_unit;
@@ -53,14 +54,12 @@ void Scene::set_grid_coefficients(Water& w) const {
         U.c_beam.v[k] = U.a.v[k] + U.b_path.v[k];
         U.c_path.v[k] = U.c_beam.v[k];
     }
-    auto majorant = [&](double r) {
-        double m = 0.0;
-        for (int k = 0; k < nbands; ++k) m = std::max(m, B.b_path.v[k] + r * U.b_path.v[k]);
-        return m;
-    };
-    g.brick_maj.resize(g.brick_max.size());
-    for (size_t b = 0; b < g.brick_max.size(); ++b) g.brick_maj[b] = majorant(g.brick_max[b]);
-    w.majorant = std::max(w.majorant, majorant(g.rho_max));
+    w.grid_s0 = w.grid_s1 = 0.0;
+    for (int k = 0; k < nbands; ++k) {
+        w.grid_s0 = std::max(w.grid_s0, B.b_path.v[k]);
+        w.grid_s1 = std::max(w.grid_s1, U.b_path.v[k]);
+    }
+    w.majorant = std::max(w.majorant, w.grid_s0 + g.rho_max * w.grid_s1);
     double cmean = 0.0;
     for (int k = 0; k < nbands; ++k) {
         w.c_beam_min = std::min(w.c_beam_min, B.c_beam.v[k] + g.rho_min * U.c_beam.v[k]);

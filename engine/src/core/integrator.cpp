@@ -170,10 +170,10 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
     const double cone_x = 1.0 - std::cos(cone_half_angle);
     BeamSample beams[kMaxBeams];
     double bv_weight = first_beam_weight;  // MIS weight of this segment's beam scattering
-    // Gridded water (per segment): the walks along it, and its beam term waiting for them.
-    std::optional<VoxelGrid::Flight> gflight;
+    // Gridded water (per segment): the walk along it, and its beam term waiting for it.
     std::optional<VoxelGrid::Cursor> gcursor;
-    double t_beam = -1.0;
+    double t_beam = -1.0, r_beam = 0.0, grho = 0.0;
+    bool beam_read = false;
     Spectrum beam_wait;
 
     for (;;) {
@@ -190,29 +190,41 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             // Distance from o + d t_cur to the next tentative collision: the water's majorant,
             // or in stratified water each layer's own (regional tracking through the layers).
             int lc = 0;
-            double gmaj = 0.0;  // grid: the majorant at the tentative collision
-            // A grid is walked once per segment: bricks for the tentative collisions, voxels for
-            // the density integral (the absorption to the segment's end and the attenuation to
-            // the beam term's point).
-            if (w.grid) {
-                gflight.emplace(*w.grid, o, d, w.layers[0].majorant);
-                gcursor.emplace(*w.grid, o, d);
-            }
+            // A grid is walked once per segment, voxel by voxel (VoxelGrid::Cursor): the free
+            // paths are sampled exactly along the walk against the local majorant over the
+            // bands, s0 + s1 rho (regular tracking: null collisions only where the bands'
+            // coefficients differ), and the density integral it accumulates gives the
+            // absorption to the segment's end and the attenuation to the beam term's point.
+            if (w.grid) gcursor.emplace(*w.grid, o, d);
             auto flight = [&]() {
                 double xi = -std::log(1.0 - rng.uniform());
-                if (w.grid) return gflight->next(xi, &gmaj) - t_cur;
+                if (w.grid) {
+                    for (;;) {  // on to the collision, reading the integral at t_beam on the way
+                        if (t_beam >= 0.0 && !beam_read && t_beam <= gcursor->position()) {
+                            r_beam = gcursor->integral();
+                            beam_read = true;
+                        }
+                        const bool to_beam = t_beam >= 0.0 && !beam_read;
+                        const double t = gcursor->march(w.grid_s0, w.grid_s1, &xi, to_beam ? t_beam : t_hit, &grho);
+                        if (xi == 0.0) return t - t_cur;
+                        if (!to_beam) return kInf;  // none before the segment's end
+                    }
+                }
                 return strat ? w.free_flight(o.z + d.z * t_cur, d.z, xi, &lc) : xi / w.majorant;
             };
             // Grid: the beam term of this segment waits for the walk (deferred to its point
             // t_beam); settle() adds it and the absorption up to t_end (kInf: none needed).
+            // The cursor only walks on: the two integrals are read in the order of their points.
             t_beam = -1.0;
+            beam_read = false;
             auto settle = [&](double t_end) {
                 if (!w.grid) return;
-                double r_beam = 0.0, r_end = 0.0;
+                double r_end = 0.0;
                 const bool end = t_end < kInf;
-                if (t_beam >= 0.0 && (!end || t_beam <= t_end)) r_beam = gcursor->value(t_beam);
+                const bool beam = t_beam >= 0.0 && !beam_read;
+                if (beam && (!end || t_beam <= t_end)) r_beam = gcursor->value(t_beam);
                 if (end) r_end = gcursor->value(t_end);
-                if (t_beam > t_end) r_beam = gcursor->value(t_beam);
+                if (beam && end && t_beam > t_end) r_beam = gcursor->value(t_beam);
                 if (t_beam >= 0.0) {
                     Spectrum tau;
                     w.grid_tau(true, t_beam, r_beam, nb, &tau);
@@ -221,14 +233,14 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 }
                 if (end) w.grid_tau(false, t_end, r_end, nb, &tau_a);
             };
-            if (w.majorant > 0.0) dt = flight();
-            if (!hybrid && w.majorant > 0.0) {
+            if (w.majorant > 0.0 && !w.grid) dt = flight();
+            if (!hybrid && w.majorant > 0.0 && !w.grid) {
                 // Trace only to the first tentative collision: short rays are cheaper, and most
                 // flights in water end in the volume.
                 h = intersect(o, d, dt);
                 clipped = !h.valid;  // nothing before dt; what lies beyond is unknown
             } else {
-                h = intersect(o, d);  // the beam terms need the segment's whole length
+                h = intersect(o, d);  // the beam terms and a grid's walk need the whole length
             }
             c.segments++;
             t_hit = h.valid ? h.t : kInf;
@@ -242,13 +254,14 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     for (int kb = 0; kb < nb; ++kb) out.beam_volume.v[kb] += bv_weight * beta.v[kb] * absorbed(w, kb) * I.v[kb];
             }
             bv_weight = 1.0;
+            if (w.majorant > 0.0 && w.grid) dt = flight();  // after t_hit and t_beam are known
 
             while (t_cur + dt < t_hit) {
                 t_cur += dt;
-                if (w.grid) L = &w.local(o + d * t_cur, &grid_local, nb);
+                if (w.grid) L = &w.local_at_density(grho, &grid_local, nb);
                 else if (strat) L = &w.layers[lc];
                 else pending += dt;
-                const double maj = w.grid ? gmaj : strat ? L->majorant : w.majorant;
+                const double maj = w.grid ? w.grid_s0 + w.grid_s1 * grho : strat ? L->majorant : w.majorant;
                 // Any probability fixed before the decision keeps the estimate unbiased;
                 // weighting by the (not yet absorbed) throughput keeps band weights tame.
                 double num = 0.0, den = 0.0;

@@ -1,6 +1,6 @@
 // A 3-D grid of piecewise-constant densities over an axis-aligned box, stored sparsely in
-// bricks, with the walks that gridded water needs: the exact integral of the density along a
-// segment (the beams' and paths' optical depths) and a brick-by-brick walk (regional delta
+// bricks, with the walk that gridded water needs: the exact integral of the density along a
+// ray (the beams' and paths' optical depths), which also samples free paths exactly (regular
 // tracking). The IOPs the densities scale live in Water (scene.h).
 #pragma once
 #include <algorithm>
@@ -15,9 +15,8 @@ namespace photic {
 
 // One density rho >= 0 per voxel; outside the box rho = 0. Empty space is skipped at three
 // levels, so that a sparse plume costs little where rays miss it: the box of the non-empty
-// voxels, bricks of B^3 voxels (only non-empty ones are stored, each with its largest rho and
-// its majorant), and per empty brick the radius of the empty cube of bricks around it, which
-// a walk crosses in one jump.
+// voxels, bricks of B^3 voxels (only non-empty ones are stored), and per empty brick the
+// radius of the empty cube of bricks around it, which a walk crosses in one jump.
 struct VoxelGrid {
     static constexpr int B = 8;        // voxels per brick edge (a power of 2)
     static constexpr int kShift = 3;   // log2(B)
@@ -30,8 +29,6 @@ struct VoxelGrid {
     // sparse plume takes little memory, and a ray's voxels in one brick share cache lines.
     std::vector<float> bricks;
     std::vector<int32_t> brick_slot;  // per brick: its block in `bricks`, or -1 when empty
-    std::vector<float> brick_max;     // largest rho per brick, layout (i * nb[1] + j) * nb[2] + k
-    std::vector<double> brick_maj;    // majorant per brick (Scene::set_grid_coefficients)
     // Per brick: 0 if non-empty, else r (1..kClearCap) such that every brick within r - 1
     // bricks of it (the cube of side 2 r - 1 around it) is empty.
     std::vector<uint8_t> brick_clear;
@@ -56,7 +53,6 @@ struct VoxelGrid {
         // voxel is met.
         const size_t nbricks = size_t(nb[0]) * nb[1] * nb[2];
         constexpr int M = B - 1;
-        brick_max.assign(nbricks, 0.f);
         brick_slot.assign(nbricks, -1);
         bricks.clear();
         rho_min = rho[0];
@@ -81,7 +77,6 @@ struct VoxelGrid {
                         bricks.resize(bricks.size() + B * B * B, 0.f);
                     }
                     bricks[size_t(brick_slot[b]) * B * B * B + local_ij + (k & M)] = v;
-                    brick_max[b] = std::max(brick_max[b], v);
                     if (kfirst < 0) kfirst = k;
                     klast = k;
                 }
@@ -242,56 +237,10 @@ struct VoxelGrid {
         }
     };
 
-    // The bricks along o + d t for t in [t0, t1] (inside the box), in order: f(brick, t_enter,
-    // t_leave) for the non-empty ones, gap(t_enter, t_leave) for runs of empty ones (an empty
-    // brick's clear cube crossed at once); either returns true to stop. Returns true if one did.
-    template <class F, class G>
-    bool walk_bricks(const Vec3& o, const Vec3& d, double t0, double t1, F&& f, G&& gap) const {
-        const double oo[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
-        Dda w(oo, dd, t0, t1, lo, bcell, ibcell, nb);
-        const std::ptrdiff_t stride[3] = {std::ptrdiff_t(nb[1]) * nb[2], nb[2], 1};
-        std::ptrdiff_t lin = w.idx[0] * stride[0] + w.idx[1] * stride[1] + w.idx[2];
-        double t = t0;
-        for (;;) {
-            const int r = brick_clear[lin];
-            int a;
-            double tb;
-            if (r > 1) {  // an empty cube of side 2 r - 1: leave it along its first face
-                double te = kInf;
-                a = 0;
-                for (int c = 0; c < 3; ++c) {
-                    if (!w.step[c]) continue;
-                    double tc = w.tnext[c] + (r - 1) * w.tdelta[c];
-                    if (tc < te) { te = tc; a = c; }
-                }
-                tb = std::min(std::max(te, t), t1);
-                if (gap(t, tb)) return true;
-                if (tb >= t1) return false;
-                for (int c = 0; c < 3; ++c) {  // the other axes: their last face before te
-                    if (c == a) continue;
-                    while (w.tnext[c] < te) { w.tnext[c] += w.tdelta[c]; w.idx[c] += w.step[c]; }
-                }
-                w.idx[a] += w.step[a] * (r - 1);
-                w.tnext[a] += (r - 1) * w.tdelta[a];
-            } else {
-                a = w.tnext[0] < w.tnext[1] ? (w.tnext[0] < w.tnext[2] ? 0 : 2) : (w.tnext[1] < w.tnext[2] ? 1 : 2);
-                tb = std::min(std::max(w.tnext[a], t), t1);
-                if (r == 0 ? f(size_t(lin), t, tb) : gap(t, tb)) return true;
-                if (tb >= t1) return false;
-            }
-            t = tb;
-            w.idx[a] += w.step[a];
-            w.tnext[a] += w.tdelta[a];
-            if (unsigned(w.idx[0]) >= unsigned(nb[0]) || unsigned(w.idx[1]) >= unsigned(nb[1]) ||
-                unsigned(w.idx[2]) >= unsigned(nb[2]))
-                return false;
-            lin = w.idx[0] * stride[0] + w.idx[1] * stride[1] + w.idx[2];
-        }
-    }
-
     // The integral of rho along the ray o + d t from t = 0, walked once however often it is
-    // asked: value(t) for increasing t continues the walk where the last call stopped. One
-    // voxel DDA over the non-empty voxels' box, in a tight loop per non-empty brick; an empty
+    // asked: value(t) for increasing t continues the walk where the last call stopped, and
+    // march() samples free paths exactly along the same walk (regular tracking). One voxel
+    // DDA over the non-empty voxels' box, in a tight loop per non-empty brick; an empty
     // brick's clear cube is crossed in one jump. (Walking bricks, then each brick's voxels
     // with a DDA set up per brick, cost 1.5 times as much: most rays cross only a few voxels
     // of each brick.)
@@ -306,23 +255,36 @@ struct VoxelGrid {
             si_ = w.step[0]; sj_ = w.step[1]; sk_ = w.step[2];
             tx_ = w.tnext[0]; ty_ = w.tnext[1]; tz_ = w.tnext[2];
             dx_ = w.tdelta[0]; dy_ = w.tdelta[1]; dz_ = w.tdelta[2];
-            t_ = t0;
+            t0_ = t0;
             t1_ = t1;
-            live_ = true;
+            box_ = true;
         }
-        // int_0^t rho(o + d s) ds, for t at or beyond the last call's (else that one's value).
+        // int_0^t rho(o + d s) ds, for t at or beyond the position (else the value there).
         double value(double t) {
-            if (live_ && t > t_) walk(std::min(t, t1_));
+            double xi = kInf, rho;
+            if (t > t_) walk<false>(t, 0.0, 0.0, &xi, &rho);
             return sum_;
         }
+        // Regular tracking of the coefficient s0 + s1 rho (>= 0) from the position on: if its
+        // optical depth reaches *xi before t_stop, the position moves there, *xi becomes 0
+        // and *rho is the density there; else the position moves to t_stop and *xi loses the
+        // depth passed. Returns the new position.
+        double march(double s0, double s1, double* xi, double t_stop, double* rho) {
+            *rho = 0.0;
+            if (t_stop > t_) walk<true>(t_stop, s0, s1, xi, rho);
+            return t_;
+        }
+        double position() const { return t_; }
+        double integral() const { return sum_; }
 
      private:
-        void walk(double te);
+        template <bool kTrack>
+        void walk(double te, double s0, double s1, double* xi, double* rho_hit);
         const VoxelGrid* g_;
-        bool live_ = false;  // false: no density (left) on this ray
+        bool box_ = false;  // the ray crosses the non-empty voxels' box, over [t0_, t1_]
         int i_ = 0, j_ = 0, k_ = 0, si_ = 0, sj_ = 0, sk_ = 0;
         double tx_ = 0, ty_ = 0, tz_ = 0, dx_ = 0, dy_ = 0, dz_ = 0;
-        double t_ = 0.0, t1_ = 0.0, sum_ = 0.0;
+        double t0_ = kInf, t1_ = kInf, t_ = 0.0, sum_ = 0.0;
     };
 
     // int rho dl along the segment from p0 to p1 (length len).
@@ -331,162 +293,120 @@ struct VoxelGrid {
         return Cursor(*this, p0, (p1 - p0) * (1.0 / len)).value(len);
     }
 
-    // Regional delta tracking along o + d t: the tentative collisions drawn against the
-    // bricks' majorants (m0, the base water's, in empty bricks and outside the non-empty
-    // voxels' box), one after the other, each brick stepped over once.
-    class Flight {
-     public:
-        Flight(const VoxelGrid& g, const Vec3& o, const Vec3& d, double m0) : g_(&g), m0_(m0) {
-            double t0, t1;
-            maj_ = m0;
-            if (!g.clip_occupied(o, d, kInf, &t0, &t1)) return;  // base water all along
-            const double oo[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
-            w_ = Dda(oo, dd, t0, t1, g.lo, g.bcell, g.ibcell, g.nb);
-            end_ = t0;   // the base water up to the box, then the bricks
-            t1_ = t1;
-            in_box_ = true;
-        }
-        // The next tentative collision's distance (kInf if none) for an Exp(1) sample xi, and
-        // the majorant there.
-        double next(double xi, double* maj) {
-            for (;;) {
-                const double room = maj_ * (end_ - t_);
-                if (maj_ > 0.0 && xi < room) {
-                    t_ += xi / maj_;
-                    *maj = maj_;
-                    return t_;
-                }
-                if (end_ >= kInf) return kInf;
-                xi -= room;
-                t_ = end_;
-                advance();
-            }
-        }
-
-     private:
-        void advance();
-        const VoxelGrid* g_;
-        double m0_;
-        Dda w_{};
-        double t_ = 0.0, end_ = kInf, maj_ = 0.0, t1_ = 0.0;
-        bool in_box_ = false, started_ = false;
-        int jump_axis_ = -1, jump_ = 0;  // the step the current region ends with
-    };
 };
 
-inline void VoxelGrid::Cursor::walk(double te) {
-    constexpr int M = B - 1;
-    const VoxelGrid& g = *g_;
-    // The state as locals (kept in registers in the loops), written back on the way out.
-    int i = i_, j = j_, k = k_;
-    const int si = si_, sj = sj_, sk = sk_;
-    double tx = tx_, ty = ty_, tz = tz_, t = t_, sum = sum_;
-    const double dx = dx_, dy = dy_, dz = dz_;
-    const int ei = si > 0 ? 0 : M, ej = sj > 0 ? 0 : M, ek = sk > 0 ? 0 : M;  // entry faces
-    const std::ptrdiff_t s0 = std::ptrdiff_t(g.nb[1]) * g.nb[2], s1 = g.nb[2];
-    bool live = true;
-    for (;;) {
-        const size_t b = (i >> kShift) * s0 + (j >> kShift) * s1 + (k >> kShift);
-        const int32_t slot = g.brick_slot[b];
-        if (slot < 0) {
-            // An empty brick and its clear cube (radius r): the voxel faces left along each
-            // axis before leaving the cube, where the ray leaves first, and every axis's voxel
-            // there.
-            const int extra = (g.brick_clear[b] - 1) * B;
-            const int li = (si > 0 ? M - (i & M) : (i & M)) + extra;
-            const int lj = (sj > 0 ? M - (j & M) : (j & M)) + extra;
-            const int lk = (sk > 0 ? M - (k & M) : (k & M)) + extra;
-            int ax = -1;
-            double tc = te;
-            if (si && tx + li * dx < tc) { tc = tx + li * dx; ax = 0; }
-            if (sj && ty + lj * dy < tc) { tc = ty + lj * dy; ax = 1; }
-            if (sk && tz + lk * dz < tc) { tc = tz + lk * dz; ax = 2; }
-            if (ax < 0) { t = te; break; }  // the walk stops in the cube
-            if (ax == 0) { i += si * (li + 1); tx += (li + 1) * dx; } else { while (tx < tc) { tx += dx; i += si; } }
-            if (ax == 1) { j += sj * (lj + 1); ty += (lj + 1) * dy; } else { while (ty < tc) { ty += dy; j += sj; } }
-            if (ax == 2) { k += sk * (lk + 1); tz += (lk + 1) * dz; } else { while (tz < tc) { tz += dz; k += sk; } }
-            t = tc;
-            if (unsigned(i) >= unsigned(g.n[0]) || unsigned(j) >= unsigned(g.n[1]) || unsigned(k) >= unsigned(g.n[2])) {
-                live = false;
-                break;
+template <bool kTrack>
+void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, double* rho_hit) {
+    // Density-free stretches (before and after the box, clear cubes) and voxels of constant
+    // density: each adds its integral, and in tracking its optical depth, until te or, in
+    // tracking, the sampled depth xi is reached inside one (then the position stops there).
+    double xi = *xi_io;
+    double t = t_, sum = sum_;
+    bool done = false;
+    auto empty_stretch = [&](double tb) {  // [t, tb) without density: true if xi is reached
+        if (kTrack) {
+            const double gain = s0 * (tb - t);
+            if (gain >= xi && s0 > 0.0) {
+                t += xi / s0;
+                xi = 0.0;
+                return true;
             }
-            continue;
+            xi -= gain;
         }
-        // A non-empty brick: voxel after voxel until the ray leaves it or the walk stops.
-        const float* v = &g.bricks[size_t(slot) * B * B * B];
-        bool stop = false;
-        for (;;) {
-            const double rho = v[(((i & M) << kShift) + (j & M)) * B + (k & M)];
-            if (tz <= tx && tz <= ty) {
-                if (tz >= te) { sum += rho * (te - t); t = te; stop = true; break; }
-                sum += rho * (tz - t);
-                t = tz; k += sk; tz += dz;
-                if (unsigned(k) >= unsigned(g.n[2])) { live = false; stop = true; break; }
-                if ((k & M) == ek) break;
-            } else if (tx <= ty) {
-                if (tx >= te) { sum += rho * (te - t); t = te; stop = true; break; }
-                sum += rho * (tx - t);
-                t = tx; i += si; tx += dx;
-                if (unsigned(i) >= unsigned(g.n[0])) { live = false; stop = true; break; }
-                if ((i & M) == ei) break;
-            } else {
-                if (ty >= te) { sum += rho * (te - t); t = te; stop = true; break; }
-                sum += rho * (ty - t);
-                t = ty; j += sj; ty += dy;
-                if (unsigned(j) >= unsigned(g.n[1])) { live = false; stop = true; break; }
-                if ((j & M) == ej) break;
-            }
-        }
-        if (stop) break;
+        t = tb;
+        return false;
+    };
+    if (t < t0_) {  // before the box (or no box: t0_ = kInf)
+        if (empty_stretch(std::min(te, t0_)) || t >= te) done = true;
     }
-    i_ = i; j_ = j; k_ = k;
-    tx_ = tx; ty_ = ty; tz_ = tz;
+    if (!done && box_ && t < t1_) {
+        constexpr int M = B - 1;
+        const VoxelGrid& g = *g_;
+        const double tv = std::min(te, t1_);  // the walk's end in the box
+        // The state as locals (kept in registers in the loops), written back on the way out.
+        int i = i_, j = j_, k = k_;
+        const int si = si_, sj = sj_, sk = sk_;
+        double tx = tx_, ty = ty_, tz = tz_;
+        const double dx = dx_, dy = dy_, dz = dz_;
+        const int ei = si > 0 ? 0 : M, ej = sj > 0 ? 0 : M, ek = sk > 0 ? 0 : M;  // entry faces
+        const std::ptrdiff_t n0 = std::ptrdiff_t(g.nb[1]) * g.nb[2], n1 = g.nb[2];
+        for (;;) {
+            const size_t b = (i >> kShift) * n0 + (j >> kShift) * n1 + (k >> kShift);
+            const int32_t slot = g.brick_slot[b];
+            if (slot < 0) {
+                // An empty brick and its clear cube (radius r): the voxel faces left along
+                // each axis before leaving the cube, where the ray leaves first, and every
+                // axis's voxel there. Stopping inside, the voxel stays the cube's entry one.
+                const int extra = (g.brick_clear[b] - 1) * B;
+                const int li = (si > 0 ? M - (i & M) : (i & M)) + extra;
+                const int lj = (sj > 0 ? M - (j & M) : (j & M)) + extra;
+                const int lk = (sk > 0 ? M - (k & M) : (k & M)) + extra;
+                int ax = -1;
+                double tc = tv;
+                if (si && tx + li * dx < tc) { tc = tx + li * dx; ax = 0; }
+                if (sj && ty + lj * dy < tc) { tc = ty + lj * dy; ax = 1; }
+                if (sk && tz + lk * dz < tc) { tc = tz + lk * dz; ax = 2; }
+                if (empty_stretch(std::max(t, tc)) || ax < 0) break;
+                if (ax == 0) { i += si * (li + 1); tx += (li + 1) * dx; } else { while (tx < tc) { tx += dx; i += si; } }
+                if (ax == 1) { j += sj * (lj + 1); ty += (lj + 1) * dy; } else { while (ty < tc) { ty += dy; j += sj; } }
+                if (ax == 2) { k += sk * (lk + 1); tz += (lk + 1) * dz; } else { while (tz < tc) { tz += dz; k += sk; } }
+                if (unsigned(i) >= unsigned(g.n[0]) || unsigned(j) >= unsigned(g.n[1]) || unsigned(k) >= unsigned(g.n[2])) {
+                    t1_ = t;  // left the grid: no density beyond
+                    break;
+                }
+                continue;
+            }
+            // A non-empty brick: voxel after voxel until the ray leaves it or the walk stops.
+            const float* v = &g.bricks[size_t(slot) * B * B * B];
+            bool stop = false;
+            // The voxel's part [t, tb) with density rho: true if the walk stops in it.
+            auto voxel = [&](double rho, double tn) {
+                const double tb = std::min(tn, tv);
+                if (kTrack) {
+                    const double sig = s0 + s1 * rho, gain = sig * (tb - t);
+                    if (gain >= xi && sig > 0.0) {
+                        const double tc = t + xi / sig;
+                        sum += rho * (tc - t);
+                        t = tc;
+                        xi = 0.0;
+                        *rho_hit = rho;
+                        return true;
+                    }
+                    xi -= gain;
+                }
+                sum += rho * (tb - t);
+                t = tb;
+                return tn >= tv;
+            };
+            for (;;) {
+                const double rho = v[(((i & M) << kShift) + (j & M)) * B + (k & M)];
+                if (tz <= tx && tz <= ty) {
+                    if (voxel(rho, tz)) { stop = true; break; }
+                    k += sk; tz += dz;
+                    if (unsigned(k) >= unsigned(g.n[2])) { t1_ = t; stop = true; break; }
+                    if ((k & M) == ek) break;
+                } else if (tx <= ty) {
+                    if (voxel(rho, tx)) { stop = true; break; }
+                    i += si; tx += dx;
+                    if (unsigned(i) >= unsigned(g.n[0])) { t1_ = t; stop = true; break; }
+                    if ((i & M) == ei) break;
+                } else {
+                    if (voxel(rho, ty)) { stop = true; break; }
+                    j += sj; ty += dy;
+                    if (unsigned(j) >= unsigned(g.n[1])) { t1_ = t; stop = true; break; }
+                    if ((j & M) == ej) break;
+                }
+            }
+            if (stop) break;
+        }
+        i_ = i; j_ = j; k_ = k;
+        tx_ = tx; ty_ = ty; tz_ = tz;
+        done = xi == 0.0 || t >= te;
+    }
+    if (!done && t >= t1_ && t < te) empty_stretch(te);  // beyond the box
     t_ = t;
     sum_ = sum;
-    live_ = live && t < t1_;
-}
-
-inline void VoxelGrid::Flight::advance() {
-    // The region that starts at end_: the first brick (entering the box), the next brick or
-    // clear cube, or the base water beyond the box.
-    const VoxelGrid& g = *g_;
-    if (!in_box_) {
-        maj_ = m0_;
-        end_ = kInf;
-        return;
-    }
-    if (started_) {  // step past the region that just ended
-        const int a = jump_axis_;
-        w_.idx[a] += w_.step[a] * jump_;
-        w_.tnext[a] += jump_ * w_.tdelta[a];
-        if (end_ >= t1_ || unsigned(w_.idx[0]) >= unsigned(g.nb[0]) ||
-            unsigned(w_.idx[1]) >= unsigned(g.nb[1]) || unsigned(w_.idx[2]) >= unsigned(g.nb[2])) {
-            in_box_ = false;
-            maj_ = m0_;
-            end_ = kInf;
-            return;
-        }
-    }
-    started_ = true;
-    const size_t b = (size_t(w_.idx[0]) * g.nb[1] + w_.idx[1]) * g.nb[2] + w_.idx[2];
-    const int r = g.brick_clear[b];
-    const int extra = r > 1 ? r - 1 : 0;  // a clear cube reaches r - 1 bricks further
-    double te = kInf;
-    int a = 0;
-    for (int c = 0; c < 3; ++c) {
-        if (!w_.step[c]) continue;
-        const double tc = w_.tnext[c] + extra * w_.tdelta[c];
-        if (tc < te) { te = tc; a = c; }
-    }
-    if (extra > 0)  // the other axes: their last face before the cube's exit
-        for (int c = 0; c < 3; ++c) {
-            if (c == a) continue;
-            while (w_.tnext[c] < te) { w_.tnext[c] += w_.tdelta[c]; w_.idx[c] += w_.step[c]; }
-        }
-    jump_axis_ = a;
-    jump_ = extra + 1;
-    maj_ = r == 0 ? g.brick_maj[b] : m0_;
-    end_ = std::max(t_, std::min(te, t1_));
+    *xi_io = xi;
 }
 
 }  // namespace photic
