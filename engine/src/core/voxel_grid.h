@@ -205,6 +205,24 @@ struct VoxelGrid {
     bool clip_occupied(const Vec3& o, const Vec3& d, double tmax, double* t0, double* t1) const {
         return occupied && clip(occ_lo, occ_hi, o, d, tmax, t0, t1);
     }
+    // The same with the reciprocal direction inv = 1 / d (+-inf where d = 0): no divisions.
+    bool clip_occupied(const double* o, const double* inv, double* t0, double* t1) const {
+        if (!occupied) return false;
+        double a0 = 0.0, a1 = kInf;
+        for (int a = 0; a < 3; ++a) {
+            if (std::isinf(inv[a])) {
+                if (o[a] < occ_lo[a] || o[a] > occ_hi[a]) return false;
+                continue;
+            }
+            double ta = (occ_lo[a] - o[a]) * inv[a], tb = (occ_hi[a] - o[a]) * inv[a];
+            if (ta > tb) std::swap(ta, tb);
+            a0 = std::max(a0, ta);
+            a1 = std::min(a1, tb);
+        }
+        *t0 = a0;
+        *t1 = a1;
+        return a1 > a0;
+    }
 
     // A 3-D DDA along o + d t for t in [t0, t1] over cells of size cs (m per axis, from the
     // corner org): the first cell from a point just inside the segment (robust at faces),
@@ -213,8 +231,8 @@ struct VoxelGrid {
         int idx[3] = {0, 0, 0}, step[3] = {0, 0, 0};
         double tnext[3] = {kInf, kInf, kInf}, tdelta[3] = {kInf, kInf, kInf};
         Dda() = default;
-        Dda(const double* o, const double* d, double t0, double t1, const double* org,
-            const double* cs, const double* ics, const int* m) {
+        Dda(const double* o, const double* d, const double* inv, double t0, double t1,
+            const double* org, const double* cs, const double* ics, const int* m) {
             const double tm = 0.5 * (t0 + std::min(t1, t0 + 1e-9 * (1.0 + t1 - t0)));
             for (int a = 0; a < 3; ++a) {
                 // int() truncates towards 0, which for -1 < x < 0 is the clamp to cell 0 anyway.
@@ -222,12 +240,12 @@ struct VoxelGrid {
                 idx[a] = x < 0.0 ? 0 : std::min(m[a] - 1, int(x));
                 if (d[a] > 0.0) {
                     step[a] = 1;
-                    tnext[a] = (org[a] + (idx[a] + 1) * cs[a] - o[a]) / d[a];
-                    tdelta[a] = cs[a] / d[a];
+                    tnext[a] = (org[a] + (idx[a] + 1) * cs[a] - o[a]) * inv[a];
+                    tdelta[a] = cs[a] * inv[a];
                 } else if (d[a] < 0.0) {
                     step[a] = -1;
-                    tnext[a] = (org[a] + idx[a] * cs[a] - o[a]) / d[a];
-                    tdelta[a] = -cs[a] / d[a];
+                    tnext[a] = (org[a] + idx[a] * cs[a] - o[a]) * inv[a];
+                    tdelta[a] = -cs[a] * inv[a];
                 } else {
                     step[a] = 0;
                     tnext[a] = kInf;
@@ -247,10 +265,11 @@ struct VoxelGrid {
     class Cursor {
      public:
         Cursor(const VoxelGrid& g, const Vec3& o, const Vec3& d) : g_(&g) {
-            double t0, t1;
-            if (!g.clip_occupied(o, d, kInf, &t0, &t1)) return;
             const double oo[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
-            const Dda w(oo, dd, t0, t1, g.lo, g.cell, g.icell, g.n);
+            const double inv[3] = {1.0 / d.x, 1.0 / d.y, 1.0 / d.z};  // +-inf along an axis
+            double t0, t1;
+            if (!g.clip_occupied(oo, inv, &t0, &t1)) return;
+            const Dda w(oo, dd, inv, t0, t1, g.lo, g.cell, g.icell, g.n);
             i_ = w.idx[0]; j_ = w.idx[1]; k_ = w.idx[2];
             si_ = w.step[0]; sj_ = w.step[1]; sk_ = w.step[2];
             tx_ = w.tnext[0]; ty_ = w.tnext[1]; tz_ = w.tnext[2];
