@@ -603,7 +603,8 @@ void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
         }
 }
 
-void Scene::radiometer_sample(int ri, uint64_t index, Spectrum* out, int* bin, Counters& c) const {
+void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_sensor, int n_at_sensor,
+                              Spectrum* out, int* bin, Counters& c) const {
     const Radiometer& r = radiometers[ri];
     Rng rng(seed, 0x7000000000000000ull + uint64_t(ri), index);
     for (int ci = 0; ci < kNumComponents; ++ci) out[ci] = Spectrum();
@@ -661,8 +662,8 @@ void Scene::radiometer_sample(int ri, uint64_t index, Spectrum* out, int* bin, C
     double first_weight = 1.0;
     Vec3 bd;
     // The beams at the radiometer serve both the MIS below and the closed-form direct term.
-    BeamSample beams[kMaxBeams];
-    int nbeams = sensor_beams ? beams_at(r.position, r.medium, beams, kMaxBeams) : 0;
+    const BeamSample* beams = at_sensor;
+    const int nbeams = sensor_beams ? n_at_sensor : 0;
     if (brightest(beams, nbeams, &bd)) {
         // Beam-scattering MIS for the first segment: the sensor's own directions against
         // directions drawn from the phase function around the beam (looking towards the sun).
@@ -716,6 +717,10 @@ void Scene::render_radiometer(int ri, uint64_t start, uint64_t count, int thread
     std::vector<double> csum(nchunks * nbins * stride, 0.0), csq(nchunks * nbins * stride, 0.0);
     int nthreads = threads <= 0 ? int(std::max(1u, std::thread::hardware_concurrency())) : threads;
     std::vector<Counters> per_thread(std::max(64, nthreads));
+    // The beams at the sensor: fixed within the pass (its position and these beams), so
+    // evaluated once, not per sample (in gridded water each is a walk to the surface).
+    std::vector<BeamSample> at_sensor(kMaxBeams);
+    const int n_at_sensor = hybrid && r.medium >= 0 ? beams_at(r.position, r.medium, at_sensor.data(), kMaxBeams) : 0;
     parallel_for(nchunks, nthreads, [&](size_t chunk, int tid) {
         if (cancel_flag.load(std::memory_order_relaxed)) return;
         uint64_t b = start + chunk * kChunk, e = std::min(start + count, b + kChunk);
@@ -724,7 +729,7 @@ void Scene::render_radiometer(int ri, uint64_t start, uint64_t count, int thread
         for (uint64_t i = b; i < e; ++i) {
             Spectrum comp[kNumComponents];
             int bin = 0;
-            radiometer_sample(ri, i, comp, &bin, per_thread[tid]);
+            radiometer_sample(ri, i, at_sensor.data(), n_at_sensor, comp, &bin, per_thread[tid]);
             accumulate(comp, nb, s + bin * stride, s2 + bin * stride);
         }
     });

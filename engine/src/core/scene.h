@@ -374,7 +374,9 @@ public:
     void render_radiometer(int rad, uint64_t start, uint64_t count, int threads,
                            double* sum, double* sumsq, Counters* total) const;
     // One radiometer sample: out[component] per band.
-    void radiometer_sample(int rad, uint64_t index, Spectrum* out, int* bin, Counters& c) const;
+    // at_sensor: the beams at the radiometer (the same for all its samples in a pass).
+    void radiometer_sample(int rad, uint64_t index, const BeamSample* at_sensor, int n_at_sensor,
+                           Spectrum* out, int* bin, Counters& c) const;
 
     void trace_rays(const float* o, const float* d, size_t n, int threads, float* t_out) const;
 

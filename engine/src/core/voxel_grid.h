@@ -155,31 +155,37 @@ struct VoxelGrid {
         return (std::ptrdiff_t(idx[0]) * nb[1] + idx[1]) * nb[2] + idx[2];
     }
     // Per brick: 0 if no ray from a point in it along `up` (up.z > 0) crosses a non-empty
-    // brick, else 1 (conservative). A ray leaves a brick through its top or the sides `up`
-    // points to, so a brick is shaded if it or one of those neighbours is (an edge or a
-    // corner is reached through them too); computed from the top down, the neighbours first.
+    // brick, else 1 (exact at the bricks' resolution). Each non-empty brick N shades the
+    // bricks below it (and beside it in its layer) whose rays' prism meets N: in brick units,
+    // with the rays' horizontal shift s per layer, a brick k' - k layers below N is shaded if
+    // its horizontal index lies in (i_N - 1 - max(s A, s C), i_N + 1 - min(s A, s C)),
+    // A = k' - k + 1, C = max(0, k' - k - 1) (the prism's extent in N's layer), per axis.
     void shade_bricks(const Vec3& up, std::vector<uint8_t>* shade) const {
-        shade->assign(brick_slot.size(), 0);
-        const int sx = up.x > 0.0 ? 1 : up.x < 0.0 ? -1 : 0, sy = up.y > 0.0 ? 1 : up.y < 0.0 ? -1 : 0;
-        const int sz = up.z > 0.0 ? 1 : up.z < 0.0 ? -1 : 0;
-        auto index = [&](int i, int j, int k) { return (size_t(i) * nb[1] + j) * nb[2] + k; };
-        auto lit = [&](int i, int j, int k) {  // outside the grid: no density
-            return i < 0 || j < 0 || k < 0 || i >= nb[0] || j >= nb[1] || k >= nb[2] || !(*shade)[index(i, j, k)];
-        };
-        for (int kk = 0; kk < nb[2]; ++kk) {
-            const int k = sz > 0 ? nb[2] - 1 - kk : kk;
-            for (int ii = 0; ii < nb[0]; ++ii) {
-                const int i = sx > 0 ? nb[0] - 1 - ii : ii;
-                for (int jj = 0; jj < nb[1]; ++jj) {
-                    const int j = sy > 0 ? nb[1] - 1 - jj : jj;
-                    bool s = brick_slot[index(i, j, k)] >= 0;
-                    if (!s && sz) s = !lit(i, j, k + sz);
-                    if (!s && sx) s = !lit(i + sx, j, k);
-                    if (!s && sy) s = !lit(i, j + sy, k);
-                    (*shade)[index(i, j, k)] = s;
-                }
-            }
+        const size_t nbricks = brick_slot.size();
+        size_t full = 0;
+        for (int32_t sl : brick_slot) full += sl >= 0;
+        if (!(up.z > 0.0) || 4 * full > nbricks) {  // a dense grid: shaded everywhere
+            shade->assign(nbricks, 1);
+            return;
         }
+        shade->assign(nbricks, 0);
+        const double sx = (up.x * ibcell[0]) / (up.z * ibcell[2]), sy = (up.y * ibcell[1]) / (up.z * ibcell[2]);
+        const double eps = 1e-9;  // widened: conservative at exact alignments
+        for (int in = 0; in < nb[0]; ++in)
+            for (int jn = 0; jn < nb[1]; ++jn)
+                for (int kn = 0; kn < nb[2]; ++kn) {
+                    if (brick_slot[(size_t(in) * nb[1] + jn) * nb[2] + kn] < 0) continue;
+                    for (int k = kn; k >= 0; --k) {
+                        const double A = kn - k + 1, C = std::max(0, kn - k - 1);
+                        const double lx = in - 1 - std::max(sx * A, sx * C) - eps, hx = in + 1 - std::min(sx * A, sx * C) + eps;
+                        const double ly = jn - 1 - std::max(sy * A, sy * C) - eps, hy = jn + 1 - std::min(sy * A, sy * C) + eps;
+                        const int i0 = std::max(0, int(std::floor(lx)) + 1), i1 = std::min(nb[0] - 1, int(std::ceil(hx)) - 1);
+                        const int j0 = std::max(0, int(std::floor(ly)) + 1), j1 = std::min(nb[1] - 1, int(std::ceil(hy)) - 1);
+                        if (i0 > i1 || j0 > j1) break;  // the shadow has left the grid
+                        for (int i = i0; i <= i1; ++i)
+                            for (int j = j0; j <= j1; ++j) (*shade)[(size_t(i) * nb[1] + j) * nb[2] + k] = 1;
+                    }
+                }
     }
 
     // The part [t0, t1] of o + d t, t in [0, tmax], inside the box [blo, bhi]; false if none.
