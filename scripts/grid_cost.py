@@ -11,9 +11,11 @@ A sunlit sea below a flat surface, a 64 x 48 camera looking down at 16 samples p
 for the hybrid and the path integrator. Each case is rendered ``--repeat`` times, alternating
 with the others, and the median is quoted with the ratio to the homogeneous render measured in
 the same run (the machine is shared: ratios are what to compare). Times include the scene's
-setup (validation, copying and scanning the densities).
+setup (reading the .npz, validation, building the bricks). ``--bands N`` renders N bands with
+the same IOPs in each (one geometric path serves them all, as in spectral scenes).
 
-    .venv/bin/python scripts/grid_cost.py [--n 256] [--repeat 3] [--what both|image] [--json out.json]
+    .venv/bin/python scripts/grid_cost.py [--n 256] [--repeat 3] [--what both|image] [--bands 1]
+                                          [--json out.json]
 """
 from __future__ import annotations
 
@@ -61,7 +63,7 @@ def dense(n: int, seed: int = 6) -> np.ndarray:
     return np.random.default_rng(seed).random((n, n, n), dtype=np.float32)
 
 
-def scene(integrator: str, density_file: Path | None, what: str = "both") -> Scene:
+def scene(integrator: str, density_file: Path | None, what: str = "both", bands: int = 1) -> Scene:
     water = {"name": "sea", "type": "ocean", "ior": 1.34, "surface": {"kind": "flat", "z": 0.0}}
     if density_file is None:
         water["iops"] = BASE
@@ -82,7 +84,22 @@ def scene(integrator: str, density_file: Path | None, what: str = "both") -> Sce
                       "radiometer_samples": 100_000, "forward_cone_deg": 0.0}}
     if what == "image":
         d["settings"]["samples"] = 64
+    if bands > 1:  # the same IOPs, sun and sky in every band: the geometry serves them all
+        d["bands"] = [{"name": f"b{i}", "center_nm": 400.0 + 300.0 * (i + 0.5) / bands,
+                       "width_nm": 300.0 / bands} for i in range(bands)]
+        d = _per_band(d, bands)
     return Scene.from_dict(d, base_dir=density_file.parent if density_file else None)
+
+
+def _per_band(d, bands: int):
+    """The scene with every one-band list of numbers repeated for each band."""
+    if isinstance(d, dict):
+        return {k: _per_band(v, bands) for k, v in d.items()}
+    if isinstance(d, list):
+        if len(d) == 1 and isinstance(d[0], float):
+            return d * bands
+        return [_per_band(x, bands) for x in d]
+    return d
 
 
 def main(argv=None) -> int:
@@ -93,6 +110,8 @@ def main(argv=None) -> int:
     ap.add_argument("--what", choices=["both", "image"], default="both",
                     help="both: the camera and the 9 radiometers (in and near the plume); "
                          "image: a 160 x 120 camera at 64 spp alone")
+    ap.add_argument("--bands", type=int, default=1,
+                    help="spectral bands (the same IOPs in each): one path serves them all")
     ap.add_argument("--json", help="write the times here")
     args = ap.parse_args(argv)
     tmp = Path(tempfile.mkdtemp(prefix="photic_grid_cost_"))
@@ -107,12 +126,12 @@ def main(argv=None) -> int:
         for integ in args.integrators.split(","):
             for name, rho in fields.items():
                 t0 = time.perf_counter()
-                render(scene(integ, rho, args.what))
+                render(scene(integ, rho, args.what, args.bands))
                 times.setdefault((integ, name), []).append(time.perf_counter() - t0)
         print(f"repeat {rep + 1}/{args.repeat} done", flush=True)
     setup = ("64 x 48 camera at 16 spp + 9 radiometers at 1e5 samples" if args.what == "both"
              else "160 x 120 camera at 64 spp")
-    print(f"\n{args.n}^3 grid, {setup}; median of {args.repeat}")
+    print(f"\n{args.n}^3 grid, {setup}, {args.bands} band(s); median of {args.repeat}")
     print(f"{'integrator':<10} {'water':<14} {'non-zero':>9} {'median s':>9} {'x homog.':>9}")
     rows = []
     for integ in args.integrators.split(","):
@@ -124,7 +143,8 @@ def main(argv=None) -> int:
                          "ratio": t / ref, "times_s": times[(integ, name)]})
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"n": args.n, "repeat": args.repeat, "what": args.what, "rows": rows}, f, indent=1)
+            json.dump({"n": args.n, "repeat": args.repeat, "what": args.what, "bands": args.bands,
+                   "rows": rows}, f, indent=1)
     return 0
 
 
