@@ -327,12 +327,14 @@ def test_sun_through_absorbing_3d_field(field):
         assert abs(r.mean[0, 0] / ref - 1) < 1e-3  # deterministic: the reference's quadrature
 
 
-@pytest.mark.parametrize("azimuth", [0.0, 90.0, 225.0])
-def test_slanted_sun_shadow_of_a_thin_slab(azimuth):
+@pytest.mark.parametrize("azimuth,diameter", [(0.0, SMALL_SUN), (90.0, SMALL_SUN), (225.0, SMALL_SUN),
+                                               (135.0, 0.53)])
+def test_slanted_sun_shadow_of_a_thin_slab(azimuth, diameter):
     """A low sun (70 deg; 44.5 deg in water) over a thin absorbing slab 0.5 m thick near the
     surface, points 3 m below and up to 3 bricks away sideways: the sunward rays reach the slab
-    through the sides of empty bricks (the bricks that need a walk are found per beam), Ed to
-    1e-3 of the numpy optical depth; the points in its shadow and beside it."""
+    through the sides of empty bricks (the bricks that need a walk are found per beam, and kept
+    over the passes' directions in the sun's disk), Ed to 1e-3 of the numpy optical depth; the
+    points in its shadow (0.1 m and more from its edges) and beside it."""
     from test_stratified import refracted_sun
     rho = np.zeros((64, 64, 32))
     rho[30:34, 30:34, 24:28] = 2.0  # x, y in [-0.5, 0.5], z in [-1.0, -0.5]
@@ -352,15 +354,16 @@ def test_slanted_sun_shadow_of_a_thin_slab(azimuth):
     d["radiometers"] = [{"name": f"Ed_{i}", "quantity": "Ed", "position": list(p)}
                         for i, p in enumerate(points)]
     d["sun"] = {"zenith_deg": 70.0, "azimuth_deg": azimuth, "irradiance": [1.0],
-                "angular_diameter_deg": SMALL_SUN}
+                "angular_diameter_deg": diameter}
     d["sky"] = {"type": "black"}
-    res = render(Scene.from_dict(d), radiometer_samples=2_000)
+    # a large sun: 64 passes (directions in the disk) for the disk's average
+    res = render(Scene.from_dict(d), radiometer_samples=2_000 if diameter == SMALL_SUN else 64 * 4096)
     crossed = 0
     for i, p in enumerate(points):
         length = -p[2] / mu_w
         r = _exact_integral(rho, box[0], box[1], p, p + up * length)
         crossed += r > 0.5
-        ref = refracted_sun(70.0, (0.05 * length + 0.3 * r) * mu_w, diameter_deg=SMALL_SUN)
+        ref = refracted_sun(70.0, (0.05 * length + 0.3 * r) * mu_w, diameter_deg=diameter)
         assert res.radiometer(f"Ed_{i}").mean[0, 0] == pytest.approx(ref, rel=1e-3)
     assert crossed == 3
 

@@ -140,7 +140,6 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
     flat_beam = false;
     flat_d.clear();
     flat_e0.clear();
-    flat_shade.clear();
     grid_ = BeamGrid();
     if (!has_sun) return;
     const Vec3 s = normalize(sun_direction);
@@ -196,7 +195,15 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         flat_beam = !flat_d.empty();
         if (w.grid) {
             flat_shade.resize(flat_d.size());
-            for (size_t i = 0; i < flat_d.size(); ++i) w.grid->shade_bricks(-flat_d[i], &flat_shade[i]);
+            flat_shade_dir.resize(flat_d.size(), Vec3(0, 0, 0));
+            for (size_t i = 0; i < flat_d.size(); ++i) {
+                if (dot(flat_shade_dir[i], flat_d[i]) >= std::cos(kShadeSpread)) continue;  // still inside
+                w.grid->shade_bricks(-flat_d[i], kShadeSpread, &flat_shade[i]);
+                flat_shade_dir[i] = flat_d[i];
+            }
+        } else {
+            flat_shade.clear();
+            flat_shade_dir.clear();
         }
     }
 

@@ -311,8 +311,12 @@ public:
     std::vector<Vec3> flat_d;
     std::vector<Spectrum> flat_e0;
     // Gridded ocean water: per flat beam, the grid's bricks whose sunward rays may cross
-    // non-empty ones (VoxelGrid::shade_bricks); elsewhere a beam needs no walk.
+    // non-empty ones (VoxelGrid::shade_bricks); elsewhere a beam needs no walk. Computed for a
+    // cone of kShadeSpread around a direction and kept while the passes' directions (the
+    // sun's disk) stay inside it.
+    static constexpr double kShadeSpread = 0.02;  // radians (1.1 deg)
     std::vector<std::vector<uint8_t>> flat_shade;
+    std::vector<Vec3> flat_shade_dir;
     Vec3 beam_sun_dir{0, 0, 1};
     double beam_mu_w = 1.0;           // cosine of the refracted sun's zenith angle in water
 

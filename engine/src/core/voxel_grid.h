@@ -154,13 +154,15 @@ struct VoxelGrid {
         }
         return (std::ptrdiff_t(idx[0]) * nb[1] + idx[1]) * nb[2] + idx[2];
     }
-    // Per brick: 0 if no ray from a point in it along `up` (up.z > 0) crosses a non-empty
-    // brick, else 1 (exact at the bricks' resolution). Each non-empty brick N shades the
-    // bricks below it (and beside it in its layer) whose rays' prism meets N: in brick units,
-    // with the rays' horizontal shift s per layer, a brick k' - k layers below N is shaded if
-    // its horizontal index lies in (i_N - 1 - max(s A, s C), i_N + 1 - min(s A, s C)),
-    // A = k' - k + 1, C = max(0, k' - k - 1) (the prism's extent in N's layer), per axis.
-    void shade_bricks(const Vec3& up, std::vector<uint8_t>* shade) const {
+    // Per brick: 0 if no ray from a point in it along `up` (up.z > 0), or along any direction
+    // within `spread` radians of it, crosses a non-empty brick, else 1 (exact at the bricks'
+    // resolution for spread 0). Each non-empty brick N shades the bricks below it (and beside
+    // it in its layer) whose rays' prism meets N: in brick units, with the rays' horizontal
+    // shift s per layer (s in [s - ds, s + ds] within the spread), a brick k' - k layers below
+    // N is shaded if its horizontal index lies in (i_N - 1 - max(s A, s C), i_N + 1 -
+    // min(s A, s C)), A = k' - k + 1, C = max(0, k' - k - 1) (the prism's extent in N's
+    // layer), per axis.
+    void shade_bricks(const Vec3& up, double spread, std::vector<uint8_t>* shade) const {
         const size_t nbricks = brick_slot.size();
         size_t full = 0;
         for (int32_t sl : brick_slot) full += sl >= 0;
@@ -170,15 +172,21 @@ struct VoxelGrid {
         }
         shade->assign(nbricks, 0);
         const double sx = (up.x * ibcell[0]) / (up.z * ibcell[2]), sy = (up.y * ibcell[1]) / (up.z * ibcell[2]);
-        const double eps = 1e-9;  // widened: conservative at exact alignments
+        // A direction within `spread` of up shifts by at most tan(spread) / up.z^2 more per
+        // unit height (1.5x for safety); 1e-9 keeps exact alignments conservative.
+        const double dh = 1.5 * std::tan(spread) / (up.z * up.z);
+        const double dsx = dh * bcell[2] * ibcell[0], dsy = dh * bcell[2] * ibcell[1];
+        const double eps = 1e-9;
         for (int in = 0; in < nb[0]; ++in)
             for (int jn = 0; jn < nb[1]; ++jn)
                 for (int kn = 0; kn < nb[2]; ++kn) {
                     if (brick_slot[(size_t(in) * nb[1] + jn) * nb[2] + kn] < 0) continue;
                     for (int k = kn; k >= 0; --k) {
                         const double A = kn - k + 1, C = std::max(0, kn - k - 1);
-                        const double lx = in - 1 - std::max(sx * A, sx * C) - eps, hx = in + 1 - std::min(sx * A, sx * C) + eps;
-                        const double ly = jn - 1 - std::max(sy * A, sy * C) - eps, hy = jn + 1 - std::min(sy * A, sy * C) + eps;
+                        const double lx = in - 1 - std::max(sx * A, sx * C) - dsx * A - eps;
+                        const double hx = in + 1 - std::min(sx * A, sx * C) + dsx * A + eps;
+                        const double ly = jn - 1 - std::max(sy * A, sy * C) - dsy * A - eps;
+                        const double hy = jn + 1 - std::min(sy * A, sy * C) + dsy * A + eps;
                         const int i0 = std::max(0, int(std::floor(lx)) + 1), i1 = std::min(nb[0] - 1, int(std::ceil(hx)) - 1);
                         const int j0 = std::max(0, int(std::floor(ly)) + 1), j1 = std::min(nb[1] - 1, int(std::ceil(hy)) - 1);
                         if (i0 > i1 || j0 > j1) break;  // the shadow has left the grid
