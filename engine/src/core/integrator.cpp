@@ -205,8 +205,8 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                             beam_read = true;
                         }
                         const bool to_beam = t_beam >= 0.0 && !beam_read;
-                        const double t = gcursor->march(w.grid_s0, w.grid_s1, &xi, to_beam ? t_beam : t_hit, &grho);
-                        if (xi == 0.0) return t - t_cur;
+                        if (gcursor->march(w.grid_s0, w.grid_s1, &xi, to_beam ? t_beam : t_hit, &grho))
+                            return gcursor->position() - t_cur;
                         if (!to_beam) return kInf;  // none before the segment's end
                     }
                 }

@@ -196,30 +196,8 @@ struct VoxelGrid {
                 }
     }
 
-    // The part [t0, t1] of o + d t, t in [0, tmax], inside the box [blo, bhi]; false if none.
-    static bool clip(const double* blo, const double* bhi, const Vec3& o, const Vec3& d,
-                     double tmax, double* t0, double* t1) {
-        const double oo[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
-        double a0 = 0.0, a1 = tmax;
-        for (int a = 0; a < 3; ++a) {
-            if (dd[a] == 0.0) {
-                if (oo[a] < blo[a] || oo[a] > bhi[a]) return false;
-                continue;
-            }
-            double ta = (blo[a] - oo[a]) / dd[a], tb = (bhi[a] - oo[a]) / dd[a];
-            if (ta > tb) std::swap(ta, tb);
-            a0 = std::max(a0, ta);
-            a1 = std::min(a1, tb);
-        }
-        *t0 = a0;
-        *t1 = a1;
-        return a1 > a0;
-    }
-    // The part of o + d t, t in [0, tmax], where rho may be > 0 (the non-empty voxels' box).
-    bool clip_occupied(const Vec3& o, const Vec3& d, double tmax, double* t0, double* t1) const {
-        return occupied && clip(occ_lo, occ_hi, o, d, tmax, t0, t1);
-    }
-    // The same with the reciprocal direction inv = 1 / d (+-inf where d = 0): no divisions.
+    // The part [t0, t1] of the ray o + d t, t >= 0, where rho may be > 0 (the box of the
+    // non-empty voxels); false if none. inv = 1 / d (+-inf where d = 0): no divisions.
     bool clip_occupied(const double* o, const double* inv, double* t0, double* t1) const {
         if (!occupied) return false;
         double a0 = 0.0, a1 = kInf;
@@ -295,17 +273,19 @@ struct VoxelGrid {
         // int_0^t rho(o + d s) ds, for t at or beyond the position (else the value there).
         double value(double t) {
             double xi = kInf, rho;
+            hit_ = false;
             if (t > t_) walk<false>(t, 0.0, 0.0, &xi, &rho);
             return sum_;
         }
         // Regular tracking of the coefficient s0 + s1 rho (>= 0) from the position on: if its
-        // optical depth reaches *xi before t_stop, the position moves there, *xi becomes 0
-        // and *rho is the density there; else the position moves to t_stop and *xi loses the
-        // depth passed. Returns the new position.
-        double march(double s0, double s1, double* xi, double t_stop, double* rho) {
+        // optical depth reaches *xi before t_stop, the position moves there, *rho is the
+        // density there and the result is true; else the position moves to t_stop, *xi loses
+        // the depth passed and the result is false.
+        bool march(double s0, double s1, double* xi, double t_stop, double* rho) {
             *rho = 0.0;
+            hit_ = false;
             if (t_stop > t_) walk<true>(t_stop, s0, s1, xi, rho);
-            return t_;
+            return hit_;
         }
         double position() const { return t_; }
         double integral() const { return sum_; }
@@ -315,6 +295,7 @@ struct VoxelGrid {
         void walk(double te, double s0, double s1, double* xi, double* rho_hit);
         const VoxelGrid* g_;
         bool box_ = false;  // the ray crosses the non-empty voxels' box, over [t0_, t1_]
+        bool hit_ = false;  // march: the depth was reached
         int i_ = 0, j_ = 0, k_ = 0, si_ = 0, sj_ = 0, sk_ = 0;
         double tx_ = 0, ty_ = 0, tz_ = 0, dx_ = 0, dy_ = 0, dz_ = 0;
         double t0_ = kInf, t1_ = kInf, t_ = 0.0, sum_ = 0.0;
@@ -342,6 +323,7 @@ void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, dou
             if (gain >= xi && s0 > 0.0) {
                 t += xi / s0;
                 xi = 0.0;
+                hit_ = true;
                 return true;
             }
             xi -= gain;
@@ -402,6 +384,7 @@ void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, dou
                         sum += rho * (tc - t);
                         t = tc;
                         xi = 0.0;
+                        hit_ = true;
                         *rho_hit = rho;
                         return true;
                     }
@@ -434,7 +417,7 @@ void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, dou
         }
         i_ = i; j_ = j; k_ = k;
         tx_ = tx; ty_ = ty; tz_ = tz;
-        done = xi == 0.0 || t >= te;
+        done = hit_ || t >= te;
     }
     if (!done && t >= t1_ && t < te) empty_stretch(te);  // beyond the box
     t_ = t;
