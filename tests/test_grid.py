@@ -429,6 +429,19 @@ def test_bad_grids_are_scene_errors(changes, field, text):
     assert "sea" in msg and field in msg and text in msg, msg
 
 
+@pytest.mark.parametrize("bad", [float("nan"), -1.0, float("inf")])
+def test_core_refuses_bad_densities_that_skip_validation(bad):
+    """The core checks the densities itself (a scene changed after validation): NaN, negative
+    and infinite values in an otherwise clean row are refused, not rendered."""
+    from photic.compile import compile_scene
+    rho = np.zeros((3, 4, 40))
+    rho[1, 2, 5] = 1.0
+    sc = sea([rad("Ed", 1.0)], grid=grid(mixture(0.05, 0.1, 0.002), mixture(0.2, 0.5, 0.0), rho))
+    sc.water[0].iops.density[2, 3, 37] = bad
+    with pytest.raises(ValueError, match="finite and >= 0"):
+        compile_scene(sc)
+
+
 def test_missing_npz_is_a_scene_error(tmp_path):
     g = grid(mixture(0.05, 0.1, 0.02), mixture(0.1, 0.2, 0.03), np.ones((1, 1, 1)))
     del g["density"]

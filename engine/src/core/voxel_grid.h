@@ -63,13 +63,28 @@ struct VoxelGrid {
             for (int j = 0; j < n[1]; ++j) {
                 const size_t row = (size_t(i >> kShift) * nb[1] + (j >> kShift)) * nb[2];
                 const int local_ij = ((i & M) * B + (j & M)) * B;
+                // The row's smallest and largest value in a loop the compiler vectorises (NaN
+                // fails both comparisons, so it is counted apart); most rows of a sparse
+                // field are all zero and end there.
+                float lo_v = r[0], hi_v = r[0];
+                int nan = 0;
+                for (int k = 0; k < n[2]; ++k) {
+                    const float v = r[k];
+                    lo_v = v < lo_v ? v : lo_v;
+                    hi_v = v > hi_v ? v : hi_v;
+                    nan += v != v;
+                }
+                if (nan || !(lo_v >= 0.f) || !std::isfinite(hi_v))
+                    throw std::invalid_argument("densities must be finite and >= 0");
+                rho_min = std::min(rho_min, lo_v);
+                rho_max = std::max(rho_max, hi_v);
+                if (!(hi_v > 0.f)) {
+                    r += n[2];
+                    continue;
+                }
                 int kfirst = -1, klast = -1;
                 for (int k = 0; k < n[2]; ++k, ++r) {
                     const float v = *r;
-                    if (!(v >= 0.f) || !std::isfinite(v))
-                        throw std::invalid_argument("densities must be finite and >= 0");
-                    rho_min = std::min(rho_min, v);
-                    rho_max = std::max(rho_max, v);
                     if (!(v > 0.f)) continue;
                     const size_t b = row + (k >> kShift);
                     if (brick_slot[b] < 0) {
