@@ -28,10 +28,10 @@ struct VoxelGrid {
     // Non-empty bricks only, B^3 densities each (local (i, j, k) at (i * B + j) * B + k): a
     // sparse plume takes little memory, and a ray's voxels in one brick share cache lines.
     std::vector<float> bricks;
-    std::vector<int32_t> brick_slot;  // per brick: its block in `bricks`, or -1 when empty
-    // Per brick: 0 if non-empty, else r (1..kClearCap) such that every brick within r - 1
-    // bricks of it (the cube of side 2 r - 1 around it) is empty.
-    std::vector<uint8_t> brick_clear;
+    // Per brick, one load for the walk: its block in `bricks` (>= 0), or for an empty brick
+    // -r (r in 1..kClearCap) such that every brick within r - 1 bricks of it (the cube of
+    // side 2 r - 1 around it) is empty.
+    std::vector<int32_t> brick_slot;
     bool occupied = false;            // any rho > 0; then the box of those voxels:
     double occ_lo[3] = {0, 0, 0}, occ_hi[3] = {0, 0, 0};
     float rho_min = 0.f, rho_max = 0.f;
@@ -114,17 +114,16 @@ struct VoxelGrid {
         build_clear();
     }
 
-    // brick_clear: the empty bricks' Chebyshev distance to the nearest non-empty brick, capped,
-    // by growing the non-empty set one brick at a time (a dilation by a 3^3 cube, one axis at
-    // a time).
+    // The empty bricks' Chebyshev distance to the nearest non-empty brick, capped, into
+    // brick_slot (as -r), by growing the non-empty set one brick at a time (a dilation by a
+    // 3^3 cube, one axis at a time).
     void build_clear() {
         const size_t nbricks = brick_slot.size();
         const std::ptrdiff_t stride[3] = {std::ptrdiff_t(nb[1]) * nb[2], nb[2], 1};
-        brick_clear.assign(nbricks, uint8_t(kClearCap));
         std::vector<uint8_t> grown(nbricks), next(nbricks);
         for (size_t b = 0; b < nbricks; ++b) {
             grown[b] = brick_slot[b] >= 0;
-            if (grown[b]) brick_clear[b] = 0;
+            if (!grown[b]) brick_slot[b] = -kClearCap;
         }
         for (int radius = 1; radius < kClearCap; ++radius) {
             for (int a = 0; a < 3; ++a) {
@@ -141,7 +140,7 @@ struct VoxelGrid {
                 grown.swap(next);
             }
             for (size_t b = 0; b < nbricks; ++b)
-                if (grown[b] && brick_clear[b] > radius) brick_clear[b] = uint8_t(radius);
+                if (grown[b] && brick_slot[b] < -radius) brick_slot[b] = -radius;
         }
     }
 
@@ -367,7 +366,7 @@ void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, dou
                 // An empty brick and its clear cube (radius r): the voxel faces left along
                 // each axis before leaving the cube, where the ray leaves first, and every
                 // axis's voxel there. Stopping inside, the voxel stays the cube's entry one.
-                const int extra = (g.brick_clear[b] - 1) * B;
+                const int extra = (-slot - 1) * B;
                 const int li = (si > 0 ? M - (i & M) : (i & M)) + extra;
                 const int lj = (sj > 0 ? M - (j & M) : (j & M)) + extra;
                 const int lk = (sk > 0 ? M - (k & M) : (k & M)) + extra;
