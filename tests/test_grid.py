@@ -269,6 +269,44 @@ def test_grid_walk_equals_exact_integral(field):
     assert crossed > 80
 
 
+def test_regular_tracking_inverts_the_optical_depth_exactly():
+    """Cursor::march (the free paths in gridded water) against numpy: along 300 random rays
+    through the sparse field, the position where the optical depth of s0 + s1 rho reaches xi
+    (xi ~ Exp(1), some beyond t_stop): the depth up to it equals xi to 1e-9, the density there
+    is the voxel's, and a march stopped at t_stop reports the depth left."""
+    from photic.compile import compile_scene
+    rng = np.random.default_rng(8)
+    rho = _sparse_field()
+    box = ([-1.5, -2.0, -4.0], [3.0, 4.0, 4.2])
+    d = sea([rad("Ed", 1.0)], iops=mixture(0.05, 0.0, 0.0)).to_dict()
+    del d["water"][0]["iops"]
+    d["water"][0]["iop_grid"] = grid(mixture(0.05, 0.0, 0.0), mixture(0.3, 0.0, 0.0), rho, box)
+    core = compile_scene(Scene.from_dict(d))
+    lo, size = np.array(box[0]), np.array(box[1])
+    g = Scene.from_dict(d).water[0].iops
+    reached = stopped = 0
+    for _ in range(300):
+        o = lo + rng.random(3) * size
+        u = rng.normal(size=3)
+        u /= np.linalg.norm(u)
+        s0, s1 = (0.0, 2.0) if rng.random() < 0.3 else (0.4, 1.5)
+        xi = rng.exponential()
+        t_stop = 0.5 + 6.0 * rng.random()
+        hit, t, rho_at, integral, left = core.grid_march(0, o.tolist(), u.tolist(), s0, s1, xi, t_stop)
+        r = _exact_integral(rho, lo, size, o, o + u * t) if t > 0 else 0.0
+        assert integral == pytest.approx(r, rel=1e-9, abs=1e-12)
+        depth = s0 * t + s1 * r
+        if hit:
+            reached += 1
+            assert t <= t_stop * (1 + 1e-12) and depth == pytest.approx(xi, rel=1e-9, abs=1e-12)
+            assert rho_at == pytest.approx(g.density_at(o + u * (t - 1e-9)), rel=1e-6, abs=1e-12)
+        else:
+            stopped += 1
+            assert t == pytest.approx(t_stop, rel=1e-12)
+            assert left == pytest.approx(xi - depth, rel=1e-9, abs=1e-12) and left >= 0
+    assert reached > 50 and stopped > 50
+
+
 def _on_face(p0, p1, lo, cell):
     """Both ends on one plane of voxel faces (the density there is either side's)."""
     for a in range(3):

@@ -338,6 +338,18 @@ PYBIND11_MODULE(_core, m) {
         }, py::arg("water"), py::arg("p0"), py::arg("p1"),
            "The integral of the grid's density along the segment p0 -> p1 (m): what the "
            "integrators' optical depths use (for tests).")
+        .def("grid_march", [](const Scene& s, int water, std::array<double, 3> o, std::array<double, 3> d,
+                              double s0, double s1, double xi, double t_stop) {
+            const Water& w = s.waters.at(water);
+            if (!w.grid) throw std::invalid_argument("this water has no grid");
+            VoxelGrid::Cursor c(*w.grid, to_vec(o), normalize(to_vec(d)));
+            double rho = 0.0;
+            const bool hit = c.march(s0, s1, &xi, t_stop, &rho);
+            return py::make_tuple(hit, c.position(), rho, c.integral(), xi);
+        }, py::arg("water"), py::arg("o"), py::arg("d"), py::arg("s0"), py::arg("s1"), py::arg("xi"),
+           py::arg("t_stop"),
+           "Regular tracking along o + d t in the grid (for tests): (reached, position, density "
+           "there, int rho up to it, depth left) for the optical depth xi of s0 + s1 rho.")
         .def("camera_medium", [](const Scene& s, int i) { return s.cameras.at(i).medium; })
         .def("radiometer_medium", [](const Scene& s, int i) { return s.radiometers.at(i).medium; })
         .def("radiometer_bins", [](const Scene& s, int i) { return s.radiometers.at(i).bins(); })
