@@ -207,6 +207,15 @@ def _sparse_field():
     return rho
 
 
+def absorbing_grid(rho, box) -> dict:
+    """A sunlit sea with b = 0 whose absorption is 0.05 + 0.3 rho per metre over the box
+    (as a scene dict, one radiometer to replace)."""
+    d = sea([rad("Ed", 1.0)], iops=mixture(0.05, 0.0, 0.0)).to_dict()
+    del d["water"][0]["iops"]
+    d["water"][0]["iop_grid"] = grid(mixture(0.05, 0.0, 0.0), mixture(0.3, 0.0, 0.0), rho, box)
+    return d
+
+
 def _exact_integral(rho, lo, size, p0, p1):
     """int rho dl from p0 to p1 in numpy: the segment cut at every voxel face it crosses (the
     densities as the core stores them, float32)."""
@@ -240,9 +249,7 @@ def test_grid_walk_equals_exact_integral(field):
     rho = {"sparse 37x29x45": _sparse_field, "one voxel": lambda: np.ones((1, 1, 1)),
            "full 9x8x17": lambda: rng.random((9, 8, 17)) + 0.1}[field]()
     box = ([-1.5, -2.0, -4.0], [3.0, 4.0, 4.2])
-    d = sea([rad("Ed", 1.0)], iops=mixture(0.05, 0.0, 0.0)).to_dict()
-    del d["water"][0]["iops"]
-    d["water"][0]["iop_grid"] = grid(mixture(0.05, 0.0, 0.0), mixture(0.3, 0.0, 0.0), rho, box)
+    d = absorbing_grid(rho, box)
     core = compile_scene(Scene.from_dict(d))
     lo, size = np.array(box[0]), np.array(box[1])
     cell = size / np.array(rho.shape)
@@ -278,9 +285,7 @@ def test_regular_tracking_inverts_the_optical_depth_exactly():
     rng = np.random.default_rng(8)
     rho = _sparse_field()
     box = ([-1.5, -2.0, -4.0], [3.0, 4.0, 4.2])
-    d = sea([rad("Ed", 1.0)], iops=mixture(0.05, 0.0, 0.0)).to_dict()
-    del d["water"][0]["iops"]
-    d["water"][0]["iop_grid"] = grid(mixture(0.05, 0.0, 0.0), mixture(0.3, 0.0, 0.0), rho, box)
+    d = absorbing_grid(rho, box)
     core = compile_scene(Scene.from_dict(d))
     lo, size = np.array(box[0]), np.array(box[1])
     g = Scene.from_dict(d).water[0].iops
@@ -330,9 +335,7 @@ def test_sun_through_absorbing_3d_field(field):
     from test_stratified import refracted_sun
     rho = np.random.default_rng(7).random((4, 5, 6)) * 2.0 if field.startswith("dense") else _sparse_field()
     box = ([-1.5, -2.0, -4.0], [3.0, 4.0, 4.2])   # the top above the surface
-    d = sea([rad("Ed", 1.0)], iops=mixture(0.05, 0.0, 0.0)).to_dict()
-    del d["water"][0]["iops"]
-    d["water"][0]["iop_grid"] = grid(mixture(0.05, 0.0, 0.0), mixture(0.3, 0.0, 0.0), rho, box)
+    d = absorbing_grid(rho, box)
     points = [(0.3, -0.2, -1.0), (-0.5, 0.7, -2.5), (0.9, 0.1, -3.7)]
     if field.startswith("sparse"):  # rays through either blob, one through neither, and more
         rng = np.random.default_rng(5)  # (bricks whose sunward rays miss every blob need no walk)
@@ -377,9 +380,7 @@ def test_slanted_sun_shadow_of_a_thin_slab(azimuth, diameter):
     rho = np.zeros((64, 64, 32))
     rho[30:34, 30:34, 24:28] = 2.0  # x, y in [-0.5, 0.5], z in [-1.0, -0.5]
     box = ([-8.0, -8.0, -4.0], [16.0, 16.0, 4.0])
-    d = sea([rad("Ed", 1.0)], iops=mixture(0.05, 0.0, 0.0)).to_dict()
-    del d["water"][0]["iops"]
-    d["water"][0]["iop_grid"] = grid(mixture(0.05, 0.0, 0.0), mixture(0.3, 0.0, 0.0), rho, box)
+    d = absorbing_grid(rho, box)
     sin_w = math.sin(math.radians(70.0)) / N_W
     mu_w = math.sqrt(1 - sin_w ** 2)
     phi = math.radians(azimuth)
