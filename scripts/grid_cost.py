@@ -12,8 +12,9 @@ for the hybrid and the path integrator. Each case is rendered ``--repeat`` times
 with the others, and the median is quoted with the ratio to the homogeneous render measured in
 the same run (the machine is shared: ratios are what to compare). Times include the scene's
 setup (reading the .npz, validation, building the bricks); the "render" columns are the
-renderer's own time (validation and building the grid, not reading the scene file). ``--bands N`` renders N bands with
-the same IOPs in each (one geometric path serves them all, as in spectral scenes).
+renderer's own time (building the grid and rendering, not reading and validating the scene).
+``--bands N`` renders N bands with the same IOPs in each (one geometric path serves them all,
+as in spectral scenes).
 
     .venv/bin/python scripts/grid_cost.py [--n 256] [--repeat 3] [--what both|image] [--bands 1]
                                           [--json out.json]

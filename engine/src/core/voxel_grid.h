@@ -144,29 +144,31 @@ struct VoxelGrid {
         }
     }
 
-    // The density at p (0 outside the box).
-    double at(const Vec3& p) const {
+    // The voxel (i, j, k) holding p; false outside the box.
+    bool voxel_at(const Vec3& p, int* idx) const {
         const double q[3] = {p.x, p.y, p.z};
-        int idx[3];
         for (int a = 0; a < 3; ++a) {
-            if (!(q[a] >= lo[a] && q[a] <= hi[a])) return 0.0;
+            if (!(q[a] >= lo[a] && q[a] <= hi[a])) return false;
             idx[a] = std::min(n[a] - 1, std::max(0, int((q[a] - lo[a]) * icell[a])));
         }
-        int32_t slot = brick_slot[(size_t(idx[0] >> kShift) * nb[1] + (idx[1] >> kShift)) * nb[2] + (idx[2] >> kShift)];
+        return true;
+    }
+    std::ptrdiff_t brick_of(const int* idx) const {
+        return (std::ptrdiff_t(idx[0] >> kShift) * nb[1] + (idx[1] >> kShift)) * nb[2] + (idx[2] >> kShift);
+    }
+    // The density at p (0 outside the box).
+    double at(const Vec3& p) const {
+        int idx[3];
+        if (!voxel_at(p, idx)) return 0.0;
+        const int32_t slot = brick_slot[brick_of(idx)];
         if (slot < 0) return 0.0;
         constexpr int M = B - 1;
         return bricks[size_t(slot) * B * B * B + (((idx[0] & M) * B + (idx[1] & M)) * B + (idx[2] & M))];
     }
-
     // The brick holding p, or -1 outside the box.
     std::ptrdiff_t brick_at(const Vec3& p) const {
-        const double q[3] = {p.x, p.y, p.z};
         int idx[3];
-        for (int a = 0; a < 3; ++a) {
-            if (!(q[a] >= lo[a] && q[a] <= hi[a])) return -1;
-            idx[a] = std::min(nb[a] - 1, std::max(0, int((q[a] - lo[a]) * ibcell[a])));
-        }
-        return (std::ptrdiff_t(idx[0]) * nb[1] + idx[1]) * nb[2] + idx[2];
+        return voxel_at(p, idx) ? brick_of(idx) : -1;
     }
     // Per brick: 0 if no ray from a point in it along `up` (up.z > 0), or along any direction
     // within `spread` radians of it, crosses a non-empty brick, else 1 (exact at the bricks'
@@ -177,9 +179,7 @@ struct VoxelGrid {
     // min(s A, s C)), A = k' - k + 1, C = max(0, k' - k - 1) (the prism's extent in N's
     // layer), per axis.
     void shade_bricks(const Vec3& up, double spread, std::vector<uint8_t>* shade) const {
-        const size_t nbricks = brick_slot.size();
-        size_t full = 0;
-        for (int32_t sl : brick_slot) full += sl >= 0;
+        const size_t nbricks = brick_slot.size(), full = bricks.size() / (B * B * B);
         if (!(up.z > 0.0) || 4 * full > nbricks) {  // a dense grid: shaded everywhere
             shade->assign(nbricks, 1);
             return;
@@ -230,37 +230,6 @@ struct VoxelGrid {
         return a1 > a0;
     }
 
-    // A 3-D DDA along o + d t for t in [t0, t1] over cells of size cs (m per axis, from the
-    // corner org): the first cell from a point just inside the segment (robust at faces),
-    // then one face at a time. No divisions after the set-up.
-    struct Dda {
-        int idx[3] = {0, 0, 0}, step[3] = {0, 0, 0};
-        double tnext[3] = {kInf, kInf, kInf}, tdelta[3] = {kInf, kInf, kInf};
-        Dda() = default;
-        Dda(const double* o, const double* d, const double* inv, double t0, double t1,
-            const double* org, const double* cs, const double* ics, const int* m) {
-            const double tm = 0.5 * (t0 + std::min(t1, t0 + 1e-9 * (1.0 + t1 - t0)));
-            for (int a = 0; a < 3; ++a) {
-                // int() truncates towards 0, which for -1 < x < 0 is the clamp to cell 0 anyway.
-                double x = (o[a] + d[a] * tm - org[a]) * ics[a];
-                idx[a] = x < 0.0 ? 0 : std::min(m[a] - 1, int(x));
-                if (d[a] > 0.0) {
-                    step[a] = 1;
-                    tnext[a] = (org[a] + (idx[a] + 1) * cs[a] - o[a]) * inv[a];
-                    tdelta[a] = cs[a] * inv[a];
-                } else if (d[a] < 0.0) {
-                    step[a] = -1;
-                    tnext[a] = (org[a] + idx[a] * cs[a] - o[a]) * inv[a];
-                    tdelta[a] = -cs[a] * inv[a];
-                } else {
-                    step[a] = 0;
-                    tnext[a] = kInf;
-                    tdelta[a] = kInf;
-                }
-            }
-        }
-    };
-
     // The integral of rho along the ray o + d t from t = 0, walked once however often it is
     // asked: value(t) for increasing t continues the walk where the last call stopped, and
     // march() samples free paths exactly along the same walk (regular tracking). One voxel
@@ -275,11 +244,23 @@ struct VoxelGrid {
             const double inv[3] = {1.0 / d.x, 1.0 / d.y, 1.0 / d.z};  // +-inf along an axis
             double t0, t1;
             if (!g.clip_occupied(oo, inv, &t0, &t1)) return;
-            const Dda w(oo, dd, inv, t0, t1, g.lo, g.cell, g.icell, g.n);
-            i_ = w.idx[0]; j_ = w.idx[1]; k_ = w.idx[2];
-            si_ = w.step[0]; sj_ = w.step[1]; sk_ = w.step[2];
-            tx_ = w.tnext[0]; ty_ = w.tnext[1]; tz_ = w.tnext[2];
-            dx_ = w.tdelta[0]; dy_ = w.tdelta[1]; dz_ = w.tdelta[2];
+            // The 3-D DDA's start: the voxel of a point just inside the clipped ray (robust at
+            // faces), then per axis the step, the next face and the distance between faces.
+            const double tm = 0.5 * (t0 + std::min(t1, t0 + 1e-9 * (1.0 + t1 - t0)));
+            int idx[3], step[3];
+            double next[3], delta[3];
+            for (int a = 0; a < 3; ++a) {
+                // int() truncates towards 0, which for -1 < x < 0 is the clamp to voxel 0 anyway.
+                const double x = (oo[a] + dd[a] * tm - g.lo[a]) * g.icell[a];
+                idx[a] = x < 0.0 ? 0 : std::min(g.n[a] - 1, int(x));
+                step[a] = dd[a] > 0.0 ? 1 : dd[a] < 0.0 ? -1 : 0;
+                next[a] = step[a] ? (g.lo[a] + (idx[a] + (step[a] > 0)) * g.cell[a] - oo[a]) * inv[a] : kInf;
+                delta[a] = step[a] ? step[a] * g.cell[a] * inv[a] : kInf;
+            }
+            i_ = idx[0]; j_ = idx[1]; k_ = idx[2];
+            si_ = step[0]; sj_ = step[1]; sk_ = step[2];
+            tx_ = next[0]; ty_ = next[1]; tz_ = next[2];
+            dx_ = delta[0]; dy_ = delta[1]; dz_ = delta[2];
             t0_ = t0;
             t1_ = t1;
             box_ = true;
@@ -320,7 +301,6 @@ struct VoxelGrid {
         if (!(len > 0.0)) return 0.0;
         return Cursor(*this, p0, (p1 - p0) * (1.0 / len)).value(len);
     }
-
 };
 
 template <bool kTrack>
