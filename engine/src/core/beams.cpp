@@ -194,16 +194,21 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         }
         flat_beam = !flat_d.empty();
         if (w.grid) {
+            // The passes' directions lie within the refracted sun disk, whose radius is at most
+            // the sun's (refraction into denser water narrows angles): one map serves them all
+            // (a rough sea's facets: one per facet direction, rebuilt when it moves).
+            const double spread = 1.001 * alpha + 1e-9;
+            Vec3 centre;
+            const bool smooth = !ocean_rough && refract(-sun_dir, Vec3(0, 0, 1), 1.0, w.ior, &centre);
             flat_shade.resize(flat_d.size());
-            flat_shade_dir.resize(flat_d.size(), Vec3(0, 0, 0));
             for (size_t i = 0; i < flat_d.size(); ++i) {
-                if (dot(flat_shade_dir[i], flat_d[i]) >= std::cos(kShadeSpread)) continue;  // still inside
-                w.grid->shade_bricks(-flat_d[i], kShadeSpread, &flat_shade[i]);
-                flat_shade_dir[i] = flat_d[i];
+                VoxelGrid::ShadowMap& m = flat_shade[i];
+                const Vec3 up = smooth ? -centre : -flat_d[i];
+                if (m.spread >= 0.0 && dot(m.up, -flat_d[i]) >= std::cos(m.spread)) continue;  // still inside
+                w.grid->shadow_map(up, spread, &m);
             }
         } else {
             flat_shade.clear();
-            flat_shade_dir.clear();
         }
     }
 
@@ -552,15 +557,21 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool ex
                 if (!w.varying() || !exact) {
                     const Spectrum& c = w.layers[0].c_beam;
                     for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * std::exp(-c.v[k] * l);
-                } else {  // exp(-int c_beam dl) from the surface down through the layers
-                    Spectrum tau;
-                    if (w.grid) {
-                        const std::ptrdiff_t b = w.grid->brick_at(x);
-                        const bool clear = b >= 0 && i < flat_shade.size() && !flat_shade[i][b];
-                        w.grid_tau(true, l, clear ? 0.0 : w.grid->integral(x - fd * l, x, l), nbands, &tau);
-                    } else {
-                        w.add_optical_depth(&WaterLayer::c_beam, ocean_z, x.z, l, nbands, &tau);
+                } else if (w.grid) {  // exp(-int c_beam dl) from the surface down through the voxels
+                    // Only the part of the ray between the heights where it may meet density
+                    // is walked (none if it meets none).
+                    double r = 0.0, z0 = -kInf, z1 = kInf;
+                    if (i >= flat_shade.size() || flat_shade[i].meets(x, &z0, &z1)) {
+                        const double za = std::max(x.z, z0), zb = std::min(ocean_z, z1);
+                        const double la = (za - x.z) / (-fd.z), lb = (zb - x.z) / (-fd.z);
+                        r = w.grid->integral(x - fd * lb, x - fd * la, lb - la);
                     }
+                    double att[kMaxBands];
+                    w.grid_transmittance(l, r, nbands, att);
+                    for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * att[k];
+                } else {  // the same through the layers
+                    Spectrum tau;
+                    w.add_optical_depth(&WaterLayer::c_beam, ocean_z, x.z, l, nbands, &tau);
                     for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * std::exp(-tau.v[k]);
                 }
                 ++n;

@@ -62,30 +62,35 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
     const Vec3 x = o + d * t;
     int n = beams_at(x, medium, beams, kMaxBeams);
     if (n == 0) return;
-    // The local scattering at x and the attenuation back to o (through the layers crossed).
-    thread_local WaterLayer scratch;  // per thread: its spectra vectors keep their memory
-    const WaterLayer& L = w.grid ? w.local(x, &scratch, nbands) : w.layer_at(x.z);
+    // The local scattering at x (in a grid the base's plus the density rx times the unit's)
+    // and the attenuation back to o (through the layers or voxels crossed).
+    const WaterLayer& L = w.grid ? w.layers[0] : w.layer_at(x.z);
+    const double rx = w.grid ? w.grid->at(x) : 0.0;
     double att[kMaxBands];
-    if (deferred_t && w.grid) {
+    if (deferred_t) {  // gridded water only: the caller's walk along the segment will tell
         *deferred_t = t;
         for (int kb = 0; kb < nbands; ++kb) att[kb] = 1.0;
     } else if (!w.varying()) {
         for (int kb = 0; kb < nbands; ++kb) att[kb] = std::exp(-L.c_path.v[kb] * t);
+    } else if (w.grid) {
+        w.grid_transmittance(t, w.grid->integral(o, x, t), nbands, att);
     } else {
         Spectrum tau;
-        if (w.grid) w.grid_optical_depth(true, o, x, t, nbands, &tau);
-        else w.add_optical_depth(&WaterLayer::c_path, o.z, x.z, t, nbands, &tau);
+        w.add_optical_depth(&WaterLayer::c_path, o.z, x.z, t, nbands, &tau);
         for (int kb = 0; kb < nbands; ++kb) att[kb] = std::exp(-tau.v[kb]);
     }
     const double cone_x = 1.0 - std::cos(cone_half_angle);
+    const size_t nc = w.components.size();
     for (int j = 0; j < n; ++j) {
         double xs = std::max(0.0, 1.0 + dot(beams[j].d, d));  // 1 - cos(psi)
         if (xs < cone_x) continue;  // inside the cone the light stays in the beam
         double pv[16];
-        for (size_t ci = 0; ci < w.components.size(); ++ci) pv[ci] = phases[w.components[ci].phase].eval(xs);
+        for (size_t ci = 0; ci < nc; ++ci) pv[ci] = phases[w.components[ci].phase].eval(xs);
         for (int kb = 0; kb < nbands; ++kb) {
             double bp = 0.0;
-            for (size_t ci = 0; ci < w.components.size(); ++ci) bp += L.comp_b[ci].v[kb] * pv[ci];
+            for (size_t ci = 0; ci < nc; ++ci) bp += L.comp_b[ci].v[kb] * pv[ci];
+            if (rx > 0.0)
+                for (size_t ci = 0; ci < nc; ++ci) bp += rx * w.grid_unit.comp_b[ci].v[kb] * pv[ci];
             out->v[kb] += att[kb] * bp * beams[j].e.v[kb] / pdf;
         }
     }
@@ -160,7 +165,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
     auto flush = [&](const Water& w) {
         if (w.varying()) {
             for (int k = 0; k < nb; ++k) beta.v[k] *= std::exp(-tau_a.v[k]);
-            tau_a = Spectrum();
+            for (int k = 0; k < nb; ++k) tau_a.v[k] = 0.0;  // (only the bands in use are read)
             return;
         }
         if (pending > 0.0)
@@ -226,9 +231,9 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 if (end) r_end = gcursor->value(t_end);
                 if (beam && end && t_beam > t_end) r_beam = gcursor->value(t_beam);
                 if (t_beam >= 0.0) {
-                    Spectrum tau;
-                    w.grid_tau(true, t_beam, r_beam, nb, &tau);
-                    for (int kb = 0; kb < nb; ++kb) out.beam_volume.v[kb] += beam_wait.v[kb] * std::exp(-tau.v[kb]);
+                    double att[kMaxBands];
+                    w.grid_transmittance(t_beam, r_beam, nb, att);
+                    for (int kb = 0; kb < nb; ++kb) out.beam_volume.v[kb] += beam_wait.v[kb] * att[kb];
                     t_beam = -1.0;
                 }
                 if (end) w.grid_tau(false, t_end, r_end, nb, &tau_a);

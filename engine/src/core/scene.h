@@ -114,6 +114,11 @@ struct Water {
         const Spectrum& cu = attenuation ? grid_unit.c_path : grid_unit.a;
         for (int k = 0; k < nb; ++k) tau->v[k] += cb.v[k] * len + cu.v[k] * r;
     }
+    // exp(-c_path optical depth) per band of such a segment, into t[0..nb) (no spectrum to
+    // clear: these run once or twice per path segment).
+    void grid_transmittance(double len, double r, int nb, double* t) const {
+        for (int k = 0; k < nb; ++k) t[k] = std::exp(-(layers[0].c_path.v[k] * len + grid_unit.c_path.v[k] * r));
+    }
     const WaterLayer& layer_at(double z) const { return layers[layer_index(z)]; }
     int layer_index(double z) const {
         int lo = 1, hi = int(layers.size());  // the first layer i >= 1 with z_top < z, minus one
@@ -310,13 +315,11 @@ public:
     // beam for a smooth surface, kRoughFlatBeams facets (stratified) for a rough one.
     std::vector<Vec3> flat_d;
     std::vector<Spectrum> flat_e0;
-    // Gridded ocean water: per flat beam, the grid's bricks whose sunward rays may cross
-    // non-empty ones (VoxelGrid::shade_bricks); elsewhere a beam needs no walk. Computed for a
-    // cone of kShadeSpread around a direction and kept while the passes' directions (the
-    // sun's disk) stay inside it.
-    static constexpr double kShadeSpread = 0.02;  // radians (1.1 deg)
-    std::vector<std::vector<uint8_t>> flat_shade;
-    std::vector<Vec3> flat_shade_dir;
+    // Gridded ocean water: per flat beam, the points whose sunward ray crosses no density
+    // (VoxelGrid::ShadowMap), where a beam needs no walk. Built for a cone around a direction
+    // (the refracted sun's centre, spread by the sun's radius) and kept while the passes'
+    // directions stay inside it.
+    std::vector<VoxelGrid::ShadowMap> flat_shade;
     Vec3 beam_sun_dir{0, 0, 1};
     double beam_mu_w = 1.0;           // cosine of the refracted sun's zenith angle in water
 

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 #include "vec.h"
@@ -170,43 +171,105 @@ struct VoxelGrid {
         int idx[3];
         return voxel_at(p, idx) ? brick_of(idx) : -1;
     }
-    // Per brick: 0 if no ray from a point in it along `up` (up.z > 0), or along any direction
-    // within `spread` radians of it, crosses a non-empty brick, else 1 (exact at the bricks'
-    // resolution for spread 0). Each non-empty brick N shades the bricks below it (and beside
-    // it in its layer) whose rays' prism meets N: in brick units, with the rays' horizontal
-    // shift s per layer (s in [s - ds, s + ds] within the spread), a brick k' - k layers below
-    // N is shaded if its horizontal index lies in (i_N - 1 - max(s A, s C), i_N + 1 -
-    // min(s A, s C)), A = k' - k + 1, C = max(0, k' - k - 1) (the prism's extent in N's
-    // layer), per axis.
-    void shade_bricks(const Vec3& up, double spread, std::vector<uint8_t>* shade) const {
-        const size_t nbricks = brick_slot.size(), full = bricks.size() / (B * B * B);
-        if (!(up.z > 0.0) || 4 * full > nbricks) {  // a dense grid: shaded everywhere
-            shade->assign(nbricks, 1);
+    // Where the rays from points towards the sun meet density: for rays from x along `up`
+    // (up.z > 0) or any direction within `spread` radians of it, a map over the rays'
+    // footprints f(x) = x_h - x.z up_h / up.z (where the ray along `up` through x meets
+    // z = 0) holding per cell the lowest bottom and highest top of the non-empty voxels whose
+    // footprint (widened for the spread) meets the cell. A ray from x (x.z >= z_floor) that
+    // crosses a voxel over a positive length does so within the voxel's heights, so within
+    // the cell's span and above x: outside it the ray has no density, exactly. The beams walk
+    // only that part of a ray, and none where the span lies below x.
+    struct ShadowMap {
+        Vec3 up{0, 0, 1};
+        double spread = -1.0;        // < 0: not built
+        bool all = true;             // no map (too grazing a direction): every ray may meet density
+        double sx = 0, sy = 0;       // up_h / up.z
+        double z_floor = 0;          // valid for points at or above this height
+        double f0[2] = {0, 0}, icell[2] = {1, 1};
+        int nf[2] = {0, 0};
+        std::vector<float> span;     // per cell: bottom, top (+inf, -inf where no voxel reaches)
+        // The heights [*z0, *z1] (z1 > x.z) outside which the ray from x has no density, or
+        // false if it has none at all.
+        bool meets(const Vec3& x, double* z0, double* z1) const {
+            *z0 = -kInf;
+            *z1 = kInf;
+            if (all || !(x.z >= z_floor)) return true;
+            const double fx = (x.x - sx * x.z - f0[0]) * icell[0], fy = (x.y - sy * x.z - f0[1]) * icell[1];
+            if (!(fx >= 0.0 && fy >= 0.0 && fx < nf[0] && fy < nf[1])) return false;
+            const float* c = &span[2 * (size_t(fx) * nf[1] + size_t(fy))];
+            *z0 = c[0];
+            *z1 = c[1];
+            return *z1 > x.z;
+        }
+    };
+    void shadow_map(const Vec3& up, double spread, ShadowMap* m) const {
+        m->up = up;
+        m->spread = spread;
+        m->all = true;
+        m->z_floor = lo[2];
+        m->span.clear();
+        // A direction within `spread` of up: its shift per unit height differs by at most
+        // spread / cos^2(theta + spread) (theta: up's zenith angle), as |d(tan)| <= dtheta / cos^2.
+        const double theta = std::acos(std::clamp(up.z, -1.0, 1.0));
+        if (!(theta + spread < 1.48)) return;  // within 5 degrees of the horizon: walk always
+        m->all = false;
+        m->sx = up.x / up.z;
+        m->sy = up.y / up.z;
+        const double c = std::cos(theta + spread), dh = spread / (c * c) * (1.0 + 1e-6);
+        const double s[2] = {m->sx, m->sy};
+        if (!occupied) {
+            m->nf[0] = m->nf[1] = 0;
             return;
         }
-        shade->assign(nbricks, 0);
-        const double sx = (up.x * ibcell[0]) / (up.z * ibcell[2]), sy = (up.y * ibcell[1]) / (up.z * ibcell[2]);
-        // A direction within `spread` of up shifts by at most tan(spread) / up.z^2 more per
-        // unit height (1.5x for safety); 1e-9 keeps exact alignments conservative.
-        const double dh = 1.5 * std::tan(spread) / (up.z * up.z);
-        const double dsx = dh * bcell[2] * ibcell[0], dsy = dh * bcell[2] * ibcell[1];
-        const double eps = 1e-9;
-        for (int in = 0; in < nb[0]; ++in)
-            for (int jn = 0; jn < nb[1]; ++jn)
-                for (int kn = 0; kn < nb[2]; ++kn) {
-                    if (brick_slot[(size_t(in) * nb[1] + jn) * nb[2] + kn] < 0) continue;
-                    for (int k = kn; k >= 0; --k) {
-                        const double A = kn - k + 1, C = std::max(0, kn - k - 1);
-                        const double lx = in - 1 - std::max(sx * A, sx * C) - dsx * A - eps;
-                        const double hx = in + 1 - std::min(sx * A, sx * C) + dsx * A + eps;
-                        const double ly = jn - 1 - std::max(sy * A, sy * C) - dsy * A - eps;
-                        const double hy = jn + 1 - std::min(sy * A, sy * C) + dsy * A + eps;
-                        const int i0 = std::max(0, int(std::floor(lx)) + 1), i1 = std::min(nb[0] - 1, int(std::ceil(hx)) - 1);
-                        const int j0 = std::max(0, int(std::floor(ly)) + 1), j1 = std::min(nb[1] - 1, int(std::ceil(hy)) - 1);
-                        if (i0 > i1 || j0 > j1) break;  // the shadow has left the grid
-                        for (int i = i0; i <= i1; ++i)
-                            for (int j = j0; j <= j1; ++j) (*shade)[(size_t(i) * nb[1] + j) * nb[2] + k] = 1;
-                    }
+        // The map spans the occupied box's footprints, in cells of the voxels' size (or
+        // coarser, to stay within 2048 cells per axis).
+        double flo[2], fhi[2];
+        for (int a = 0; a < 2; ++a) {
+            const double w = dh * (occ_hi[2] - m->z_floor) + 1e-9 * (hi[a] - lo[a]);
+            flo[a] = occ_lo[a] - std::max(s[a] * occ_lo[2], s[a] * occ_hi[2]) - w;
+            fhi[a] = occ_hi[a] - std::min(s[a] * occ_lo[2], s[a] * occ_hi[2]) + w;
+            const double size = std::max(cell[a], (fhi[a] - flo[a]) / 2048.0);
+            m->f0[a] = flo[a];
+            m->icell[a] = 1.0 / size;
+            m->nf[a] = std::max(1, int(std::ceil((fhi[a] - flo[a]) * m->icell[a])));
+        }
+        constexpr float inf = std::numeric_limits<float>::infinity();
+        m->span.resize(2 * size_t(m->nf[0]) * m->nf[1]);
+        for (size_t c = 0; c < m->span.size(); c += 2) {
+            m->span[c] = inf;
+            m->span[c + 1] = -inf;
+        }
+        const double eps[2] = {1e-9 * (hi[0] - lo[0]), 1e-9 * (hi[1] - lo[1])};  // rounding
+        for (int ib = 0; ib < nb[0]; ++ib)
+            for (int jb = 0; jb < nb[1]; ++jb)
+                for (int kb = 0; kb < nb[2]; ++kb) {
+                    const int32_t slot = brick_slot[(size_t(ib) * nb[1] + jb) * nb[2] + kb];
+                    if (slot < 0) continue;
+                    const float* v = &bricks[size_t(slot) * B * B * B];
+                    for (int li = 0; li < B; ++li)
+                        for (int lj = 0; lj < B; ++lj)
+                            for (int lk = 0; lk < B; ++lk) {
+                                if (!(v[(li * B + lj) * B + lk] > 0.f)) continue;
+                                const int idx[3] = {ib * B + li, jb * B + lj, kb * B + lk};
+                                const double z0 = lo[2] + idx[2] * cell[2], z1 = z0 + cell[2];
+                                // (Rounded outwards to float: the span stays conservative.)
+                                const float zbot = std::nextafter(float(z0), -inf), ztop = std::nextafter(float(z1), inf);
+                                const double w = dh * (z1 - m->z_floor);
+                                int r0[2], r1[2];
+                                for (int a = 0; a < 2; ++a) {
+                                    const double x0 = lo[a] + idx[a] * cell[a], x1 = x0 + cell[a];
+                                    const double g0 = x0 - std::max(s[a] * z0, s[a] * z1) - w - m->f0[a];
+                                    const double g1 = x1 - std::min(s[a] * z0, s[a] * z1) + w - m->f0[a];
+                                    r0[a] = std::max(0, int(std::floor((g0 - eps[a]) * m->icell[a])));
+                                    r1[a] = std::min(m->nf[a] - 1, int(std::floor((g1 + eps[a]) * m->icell[a])));
+                                }
+                                for (int i = r0[0]; i <= r1[0]; ++i)
+                                    for (int j = r0[1]; j <= r1[1]; ++j) {
+                                        float* c = &m->span[2 * (size_t(i) * m->nf[1] + j)];
+                                        c[0] = std::min(c[0], zbot);
+                                        c[1] = std::max(c[1], ztop);
+                                    }
+                            }
                 }
     }
 
@@ -356,9 +419,18 @@ void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, dou
                 if (sj && ty + lj * dy < tc) { tc = ty + lj * dy; ax = 1; }
                 if (sk && tz + lk * dz < tc) { tc = tz + lk * dz; ax = 2; }
                 if (empty_stretch(std::max(t, tc)) || ax < 0) break;
-                if (ax == 0) { i += si * (li + 1); tx += (li + 1) * dx; } else { while (tx < tc) { tx += dx; i += si; } }
-                if (ax == 1) { j += sj * (lj + 1); ty += (lj + 1) * dy; } else { while (ty < tc) { ty += dy; j += sj; } }
-                if (ax == 2) { k += sk * (lk + 1); tz += (lk + 1) * dz; } else { while (tz < tc) { tz += dz; k += sk; } }
+                // The other axes step over every face before tc: counted, not looped (up to
+                // 8 r steps with an unpredictable end), then settled exactly.
+                auto cross = [tc](double& tf, double dd, int& idx, int st) {
+                    if (!(tf < tc)) return;
+                    const int m = int((tc - tf) / dd);
+                    tf += m * dd;
+                    idx += st * m;
+                    while (tf < tc) { tf += dd; idx += st; }
+                };
+                if (ax == 0) { i += si * (li + 1); tx += (li + 1) * dx; } else cross(tx, dx, i, si);
+                if (ax == 1) { j += sj * (lj + 1); ty += (lj + 1) * dy; } else cross(ty, dy, j, sj);
+                if (ax == 2) { k += sk * (lk + 1); tz += (lk + 1) * dz; } else cross(tz, dz, k, sk);
                 if (unsigned(i) >= unsigned(g.n[0]) || unsigned(j) >= unsigned(g.n[1]) || unsigned(k) >= unsigned(g.n[2])) {
                     t1_ = t;  // left the grid: no density beyond
                     break;
