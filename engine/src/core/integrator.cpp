@@ -173,7 +173,6 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
         pending = 0.0;
     };
     const double cone_x = 1.0 - std::cos(cone_half_angle);
-    BeamSample beams[kMaxBeams];
     double bv_weight = first_beam_weight;  // MIS weight of this segment's beam scattering
     // Gridded water (per segment): the walk along it, and its beam term waiting for it.
     std::optional<VoxelGrid::Cursor> gcursor;
@@ -428,6 +427,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             if (hybrid && medium >= 0) {
                 // The refracted sun on an underwater surface: every beam covering the point.
                 flush(waters[medium]);
+                thread_local BeamSample beams[kMaxBeams];  // per thread: not zeroed per path (10 kB)
                 int nbm = beams_at(xo, medium, beams, kMaxBeams);
                 for (int j = 0; j < nbm; ++j) {
                     double cs = -dot(beams[j].d, n);
