@@ -457,6 +457,36 @@ def test_penumbra_of_a_large_sun_is_walked():
         assert abs(z) < 4 and abs(r.mean[0, 0] / ref - 1) < 0.01
 
 
+@pytest.mark.parametrize("wind", [0.0, 5.0])
+def test_shadow_map_skips_only_clear_rays(wind):
+    """The beams' shadow map decides where a walk is needed; the same absorbing patch with
+    1e-12 added in every other voxel makes every ray meet density (no point is skipped). b = 0
+    and one seed: both renders draw the same samples, so Ed at 24 points around and below the
+    patch must agree to 1e-9 whatever the map skipped, below a smooth sea and below a rough one
+    (wind 5 m/s: 16 facets per pass, some refracted outside the map's cone, which walk always;
+    8 passes: with b = 0 and a black sky each pass's Ed is its beams' at the sensor)."""
+    rho = np.zeros((40, 40, 20))
+    rho[16:24, 18:22, 14:17] = 1.5  # a patch 2 x 1 x 0.6 m, its top 0.6 m deep
+    box = ([-5.0, -5.0, -4.0], [10.0, 10.0, 4.0])
+    rng = np.random.default_rng(8)
+    points = np.column_stack([rng.uniform(-2, 2, 24), rng.uniform(-2, 2, 24), rng.uniform(-3.9, -0.1, 24)])
+    results = []
+    for fill in (0.0, 1e-12):
+        d = absorbing_grid(np.where(rho > 0, rho, fill), box)
+        d["water"][0]["surface"] = {"kind": "flat", "z": 0.0, "roughness": {"wind_speed": wind}}
+        d["radiometers"] = [{"name": f"Ed_{i}", "quantity": "Ed", "position": list(p)}
+                            for i, p in enumerate(points)]
+        d["sun"] = {"zenith_deg": 40.0, "azimuth_deg": 30.0, "irradiance": [1.0]}
+        d["sky"] = {"type": "black"}
+        res = render(Scene.from_dict(d), radiometer_samples=8 * 4096)
+        results.append(np.array([res.radiometer(f"Ed_{i}").mean[0, 0] for i in range(len(points))]))
+    sparse, dense = results
+    assert np.all(dense > 0)
+    assert np.max(np.abs(sparse / dense - 1)) < 1e-9
+    shaded = sparse < 0.97 * np.median(sparse)  # some points lie in the patch's shadow
+    assert 3 <= shaded.sum() <= 21
+
+
 # --------------------------------------------------------------------------------------
 # Conservation: a white furnace with a 3-D plume
 # --------------------------------------------------------------------------------------

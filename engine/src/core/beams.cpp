@@ -194,21 +194,24 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         }
         flat_beam = !flat_d.empty();
         if (w.grid) {
-            // The passes' directions lie within the refracted sun disk, whose radius is at most
-            // the sun's (refraction into denser water narrows angles): one map serves them all
-            // (a rough sea's facets: one per facet direction, rebuilt when it moves).
-            const double spread = 1.001 * alpha + 1e-9;
+            // One shadow map per render, around the refracted centre of the sun: the passes'
+            // directions lie within the refracted disk, whose radius is at most the sun's
+            // (refraction into denser water narrows angles); a rough sea's facets spread the
+            // directions by a few degrees more (a facet outside the map's cone walks always).
             Vec3 centre;
-            const bool smooth = !ocean_rough && refract(-sun_dir, Vec3(0, 0, 1), 1.0, w.ior, &centre);
-            flat_shade.resize(flat_d.size());
-            for (size_t i = 0; i < flat_d.size(); ++i) {
-                VoxelGrid::ShadowMap& m = flat_shade[i];
-                const Vec3 up = smooth ? -centre : -flat_d[i];
-                if (m.spread >= 0.0 && dot(m.up, -flat_d[i]) >= std::cos(m.spread)) continue;  // still inside
-                w.grid->shadow_map(up, spread, &m);
+            const double spread = 1.001 * alpha + 1e-9 + (ocean_rough ? kRoughShadeSpread : 0.0);
+            if (refract(-sun_dir, Vec3(0, 0, 1), 1.0, w.ior, &centre)) {
+                VoxelGrid::ShadowMap& m = flat_shade;
+                if (!(m.spread == spread && dot(m.up, -centre) >= 1.0 - 1e-12))  // (else built)
+                    w.grid->shadow_map(-centre, spread, &m);
+                flat_shade_ok.assign(flat_d.size(), 0);
+                for (size_t i = 0; i < flat_d.size(); ++i)
+                    flat_shade_ok[i] = dot(m.up, -flat_d[i]) >= std::cos(m.spread);
+            } else {
+                flat_shade_ok.clear();
             }
         } else {
-            flat_shade.clear();
+            flat_shade_ok.clear();
         }
     }
 
@@ -561,7 +564,7 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool ex
                     // Only the part of the ray between the heights where it may meet density
                     // is walked (none if it meets none).
                     double r = 0.0, z0 = -kInf, z1 = kInf;
-                    if (i >= flat_shade.size() || flat_shade[i].meets(x, &z0, &z1)) {
+                    if (i >= flat_shade_ok.size() || !flat_shade_ok[i] || flat_shade.meets(x, &z0, &z1)) {
                         const double za = std::max(x.z, z0), zb = std::min(ocean_z, z1);
                         const double la = (za - x.z) / (-fd.z), lb = (zb - x.z) / (-fd.z);
                         r = w.grid->integral(x - fd * lb, x - fd * la, lb - la);

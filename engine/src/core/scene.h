@@ -315,11 +315,13 @@ public:
     // beam for a smooth surface, kRoughFlatBeams facets (stratified) for a rough one.
     std::vector<Vec3> flat_d;
     std::vector<Spectrum> flat_e0;
-    // Gridded ocean water: per flat beam, the points whose sunward ray crosses no density
-    // (VoxelGrid::ShadowMap), where a beam needs no walk. Built for a cone around a direction
-    // (the refracted sun's centre, spread by the sun's radius) and kept while the passes'
-    // directions stay inside it.
-    std::vector<VoxelGrid::ShadowMap> flat_shade;
+    // Gridded ocean water: where the flat beams' sunward rays can meet density
+    // (VoxelGrid::ShadowMap), elsewhere a beam needs no walk. Built once for a cone around the
+    // refracted sun's centre (the sun's radius, plus kRoughShadeSpread below a rough sea);
+    // flat_shade_ok says per flat beam whether its direction lies in the cone.
+    static constexpr double kRoughShadeSpread = 0.1;  // radians (5.7 deg)
+    VoxelGrid::ShadowMap flat_shade;
+    std::vector<uint8_t> flat_shade_ok;
     Vec3 beam_sun_dir{0, 0, 1};
     double beam_mu_w = 1.0;           // cosine of the refracted sun's zenith angle in water
 
