@@ -302,31 +302,12 @@ struct VoxelGrid {
     // of each brick.)
     class Cursor {
      public:
-        Cursor(const VoxelGrid& g, const Vec3& o, const Vec3& d) : g_(&g) {
-            const double oo[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
-            const double inv[3] = {1.0 / d.x, 1.0 / d.y, 1.0 / d.z};  // +-inf along an axis
-            double t0, t1;
-            if (!g.clip_occupied(oo, inv, &t0, &t1)) return;
-            // The 3-D DDA's start: the voxel of a point just inside the clipped ray (robust at
-            // faces), then per axis the step, the next face and the distance between faces.
-            const double tm = 0.5 * (t0 + std::min(t1, t0 + 1e-9 * (1.0 + t1 - t0)));
-            int idx[3], step[3];
-            double next[3], delta[3];
-            for (int a = 0; a < 3; ++a) {
-                // int() truncates towards 0, which for -1 < x < 0 is the clamp to voxel 0 anyway.
-                const double x = (oo[a] + dd[a] * tm - g.lo[a]) * g.icell[a];
-                idx[a] = x < 0.0 ? 0 : std::min(g.n[a] - 1, int(x));
-                step[a] = dd[a] > 0.0 ? 1 : dd[a] < 0.0 ? -1 : 0;
-                next[a] = step[a] ? (g.lo[a] + (idx[a] + (step[a] > 0)) * g.cell[a] - oo[a]) * inv[a] : kInf;
-                delta[a] = step[a] ? step[a] * g.cell[a] * inv[a] : kInf;
-            }
-            i_ = idx[0]; j_ = idx[1]; k_ = idx[2];
-            si_ = step[0]; sj_ = step[1]; sk_ = step[2];
-            tx_ = next[0]; ty_ = next[1]; tz_ = next[2];
-            dx_ = delta[0]; dy_ = delta[1]; dz_ = delta[2];
-            t0_ = t0;
-            t1_ = t1;
-            box_ = true;
+        Cursor(const VoxelGrid& g, const Vec3& o, const Vec3& d)
+            : g_(&g), o_{o.x, o.y, o.z}, d_{d.x, d.y, d.z}, inv_{1.0 / d.x, 1.0 / d.y, 1.0 / d.z} {
+            // (inv_: +-inf along an axis.) The DDA is set up when the walk reaches the box:
+            // many segments end before it.
+            box_ = g.clip_occupied(o_, inv_, &t0_, &t1_);
+            if (!box_) t0_ = t1_ = kInf;
         }
         // int_0^t rho(o + d s) ds, for t at or beyond the position (else the value there).
         double value(double t) {
@@ -349,9 +330,32 @@ struct VoxelGrid {
         double integral() const { return sum_; }
 
      private:
+        // The 3-D DDA's start: the voxel of a point just inside the clipped ray (robust at
+        // faces), then per axis the step, the next face and the distance between faces.
+        void start() {
+            const VoxelGrid& g = *g_;
+            const double tm = 0.5 * (t0_ + std::min(t1_, t0_ + 1e-9 * (1.0 + t1_ - t0_)));
+            int idx[3], step[3];
+            double next[3], delta[3];
+            for (int a = 0; a < 3; ++a) {
+                // int() truncates towards 0, which for -1 < x < 0 is the clamp to voxel 0 anyway.
+                const double x = (o_[a] + d_[a] * tm - g.lo[a]) * g.icell[a];
+                idx[a] = x < 0.0 ? 0 : std::min(g.n[a] - 1, int(x));
+                step[a] = d_[a] > 0.0 ? 1 : d_[a] < 0.0 ? -1 : 0;
+                next[a] = step[a] ? (g.lo[a] + (idx[a] + (step[a] > 0)) * g.cell[a] - o_[a]) * inv_[a] : kInf;
+                delta[a] = step[a] ? step[a] * g.cell[a] * inv_[a] : kInf;
+            }
+            i_ = idx[0]; j_ = idx[1]; k_ = idx[2];
+            si_ = step[0]; sj_ = step[1]; sk_ = step[2];
+            tx_ = next[0]; ty_ = next[1]; tz_ = next[2];
+            dx_ = delta[0]; dy_ = delta[1]; dz_ = delta[2];
+            started_ = true;
+        }
         template <bool kTrack>
         void walk(double te, double s0, double s1, double* xi, double* rho_hit);
         const VoxelGrid* g_;
+        double o_[3], d_[3], inv_[3];
+        bool started_ = false;  // the DDA is set up
         bool box_ = false;  // the ray crosses the non-empty voxels' box, over [t0_, t1_]
         bool hit_ = false;  // march: the depth was reached
         int i_ = 0, j_ = 0, k_ = 0, si_ = 0, sj_ = 0, sk_ = 0;
@@ -392,6 +396,7 @@ void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, dou
         if (empty_stretch(std::min(te, t0_)) || t >= te) done = true;
     }
     if (!done && box_ && t < t1_) {
+        if (!started_) start();
         constexpr int M = B - 1;
         const VoxelGrid& g = *g_;
         const double tv = std::min(te, t1_);  // the walk's end in the box
