@@ -76,13 +76,8 @@ struct Water {
     // every band (s0, s1: the base and unit b_path's largest over the bands).
     double grid_s0 = 0.0, grid_s1 = 0.0;
     bool varying() const { return layers.size() > 1 || grid; }
-    // The coefficients at p: the layer's, or in a grid the base plus rho(p) times the unit
-    // (written into *scratch). Only the fields the integrators read at a point are filled.
-    const WaterLayer& local(const Vec3& p, WaterLayer* scratch, int nb) const {
-        if (!grid) return layer_at(p.z);
-        return local_at_density(grid->at(p), scratch, nb);
-    }
-    // A grid's coefficients where its density is r.
+    // A grid's coefficients where its density is r: the base plus r times the unit (written
+    // into *scratch). Only the fields the integrators read at a point are filled.
     const WaterLayer& local_at_density(double r, WaterLayer* scratch, int nb) const {
         if (r == 0.0) return layers[0];
         const WaterLayer& B = layers[0];

@@ -23,8 +23,7 @@ struct VoxelGrid {
     static constexpr int kShift = 3;   // log2(B)
     static constexpr int kClearCap = 4;  // largest empty-cube radius stored (bricks)
     double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-    double cell[3] = {1, 1, 1}, bcell[3] = {1, 1, 1};    // voxel and brick sizes (m)
-    double icell[3] = {1, 1, 1}, ibcell[3] = {1, 1, 1};  // 1 / size
+    double cell[3] = {1, 1, 1}, icell[3] = {1, 1, 1};  // voxel size (m) and 1 / size
     int n[3] = {1, 1, 1}, nb[3] = {1, 1, 1};
     // Non-empty bricks only, B^3 densities each (local (i, j, k) at (i * B + j) * B + k): a
     // sparse plume takes little memory, and a ray's voxels in one brick share cache lines.
@@ -46,9 +45,7 @@ struct VoxelGrid {
             n[a] = n_[a];
             cell[a] = (hi[a] - lo[a]) / n[a];
             nb[a] = (n[a] + B - 1) / B;
-            bcell[a] = cell[a] * B;
             icell[a] = 1.0 / cell[a];
-            ibcell[a] = 1.0 / bcell[a];
         }
         // One pass over the densities: each brick gets its block when its first non-zero
         // voxel is met.
@@ -145,31 +142,18 @@ struct VoxelGrid {
         }
     }
 
-    // The voxel (i, j, k) holding p; false outside the box.
-    bool voxel_at(const Vec3& p, int* idx) const {
-        const double q[3] = {p.x, p.y, p.z};
-        for (int a = 0; a < 3; ++a) {
-            if (!(q[a] >= lo[a] && q[a] <= hi[a])) return false;
-            idx[a] = std::min(n[a] - 1, std::max(0, int((q[a] - lo[a]) * icell[a])));
-        }
-        return true;
-    }
-    std::ptrdiff_t brick_of(const int* idx) const {
-        return (std::ptrdiff_t(idx[0] >> kShift) * nb[1] + (idx[1] >> kShift)) * nb[2] + (idx[2] >> kShift);
-    }
     // The density at p (0 outside the box).
     double at(const Vec3& p) const {
+        const double q[3] = {p.x, p.y, p.z};
         int idx[3];
-        if (!voxel_at(p, idx)) return 0.0;
-        const int32_t slot = brick_slot[brick_of(idx)];
+        for (int a = 0; a < 3; ++a) {
+            if (!(q[a] >= lo[a] && q[a] <= hi[a])) return 0.0;
+            idx[a] = std::min(n[a] - 1, std::max(0, int((q[a] - lo[a]) * icell[a])));
+        }
+        const int32_t slot = brick_slot[(std::ptrdiff_t(idx[0] >> kShift) * nb[1] + (idx[1] >> kShift)) * nb[2] + (idx[2] >> kShift)];
         if (slot < 0) return 0.0;
         constexpr int M = B - 1;
         return bricks[size_t(slot) * B * B * B + (((idx[0] & M) * B + (idx[1] & M)) * B + (idx[2] & M))];
-    }
-    // The brick holding p, or -1 outside the box.
-    std::ptrdiff_t brick_at(const Vec3& p) const {
-        int idx[3];
-        return voxel_at(p, idx) ? brick_of(idx) : -1;
     }
     // Where the rays from points towards the sun meet density: for rays from x along `up`
     // (up.z > 0) or any direction within `spread` radians of it, a map over the rays'
