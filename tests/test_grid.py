@@ -276,6 +276,29 @@ def test_grid_walk_equals_exact_integral(field):
     assert crossed > 80
 
 
+@pytest.mark.parametrize("field", ["sparse 37x29x45", "one voxel"])
+def test_grid_density_lookup(field):
+    """The density at a point (the beam terms' local scattering), which answers 0 without
+    touching the bricks outside the non-empty voxels' box and in empty bricks: 4000 points in,
+    around and outside the box, and the centres of all non-zero voxels, against numpy."""
+    from photic.compile import compile_scene
+    rng = np.random.default_rng(5)
+    rho = {"sparse 37x29x45": _sparse_field, "one voxel": lambda: np.ones((1, 1, 1))}[field]()
+    box = ([-1.5, -2.0, -4.0], [3.0, 4.0, 4.2])
+    core = compile_scene(Scene.from_dict(absorbing_grid(rho, box)))
+    lo, size = np.array(box[0]), np.array(box[1])
+    n = np.array(rho.shape)
+    cell = size / n
+    pts = lo - 0.2 * size + rng.random((4000, 3)) * 1.4 * size
+    centres = lo + (np.argwhere(rho > 0) + 0.5) * cell
+    for p in np.concatenate([pts, centres]):
+        q = np.floor((p - lo) / cell).astype(int)
+        inside = np.all((p >= lo) & (p <= lo + size))
+        ref = float(np.float32(rho[tuple(np.minimum(q, n - 1))])) if inside else 0.0
+        assert core.grid_density(0, p.tolist()) == ref, (p, ref)
+    assert sum(core.grid_density(0, p.tolist()) > 0 for p in pts) > 100 or field == "one voxel"
+
+
 def test_regular_tracking_inverts_the_optical_depth_exactly():
     """Cursor::march (the free paths in gridded water) against numpy: along 300 random rays
     through the sparse field, the position where the optical depth of s0 + s1 rho reaches xi

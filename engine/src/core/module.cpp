@@ -338,6 +338,13 @@ PYBIND11_MODULE(_core, m) {
         }, py::arg("water"), py::arg("p0"), py::arg("p1"),
            "The integral of the grid's density along the segment p0 -> p1 (m): what the "
            "integrators' optical depths use (for tests).")
+        .def("grid_density", [](const Scene& s, int water, std::array<double, 3> p) {
+            const Water& w = s.waters.at(water);
+            if (!w.grid) throw std::invalid_argument("this water has no grid");
+            return w.grid->at(to_vec(p));
+        }, py::arg("water"), py::arg("p"),
+           "The grid's density at p (0 outside the box): what the beam terms' scattering uses "
+           "(for tests).")
         .def("grid_march", [](const Scene& s, int water, std::array<double, 3> o, std::array<double, 3> d,
                               double s0, double s1, double xi, double t_stop) {
             const Water& w = s.waters.at(water);

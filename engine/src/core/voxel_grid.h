@@ -28,10 +28,13 @@ struct VoxelGrid {
     // Non-empty bricks only, B^3 densities each (local (i, j, k) at (i * B + j) * B + k): a
     // sparse plume takes little memory, and a ray's voxels in one brick share cache lines.
     std::vector<float> bricks;
-    // Per brick, one load for the walk: its block in `bricks` (>= 0), or for an empty brick
-    // -r (r in 1..kClearCap) such that every brick within r - 1 bricks of it (the cube of
-    // side 2 r - 1 around it) is empty.
+    // Per brick its block in `bricks` (-1: empty), and in a byte (a quarter of the memory,
+    // so that the array stays in cache: random lookups in the int array cost more than the
+    // rest of a point's density lookup) 0 for a non-empty brick or, for an empty one, r in
+    // 1..kClearCap such that every brick within r - 1 bricks of it (the cube of side 2 r - 1
+    // around it) is empty.
     std::vector<int32_t> brick_slot;
+    std::vector<int8_t> brick_clear;
     bool occupied = false;            // any rho > 0; then the box of those voxels:
     double occ_lo[3] = {0, 0, 0}, occ_hi[3] = {0, 0, 0};
     float rho_min = 0.f, rho_max = 0.f;
@@ -113,15 +116,16 @@ struct VoxelGrid {
     }
 
     // The empty bricks' Chebyshev distance to the nearest non-empty brick, capped, into
-    // brick_slot (as -r), by growing the non-empty set one brick at a time (a dilation by a
-    // 3^3 cube, one axis at a time).
+    // brick_clear, by growing the non-empty set one brick at a time (a dilation by a 3^3
+    // cube, one axis at a time).
     void build_clear() {
         const size_t nbricks = brick_slot.size();
         const std::ptrdiff_t stride[3] = {std::ptrdiff_t(nb[1]) * nb[2], nb[2], 1};
         std::vector<uint8_t> grown(nbricks), next(nbricks);
+        brick_clear.assign(nbricks, 0);
         for (size_t b = 0; b < nbricks; ++b) {
             grown[b] = brick_slot[b] >= 0;
-            if (!grown[b]) brick_slot[b] = -kClearCap;
+            if (!grown[b]) brick_clear[b] = kClearCap;
         }
         for (int radius = 1; radius < kClearCap; ++radius) {
             for (int a = 0; a < 3; ++a) {
@@ -138,20 +142,22 @@ struct VoxelGrid {
                 grown.swap(next);
             }
             for (size_t b = 0; b < nbricks; ++b)
-                if (grown[b] && brick_slot[b] < -radius) brick_slot[b] = -radius;
+                if (grown[b] && brick_clear[b] > radius) brick_clear[b] = int8_t(radius);
         }
     }
 
-    // The density at p (0 outside the box).
+    // The density at p (0 outside the box). Points outside the non-empty voxels' box or in
+    // an empty brick touch no large array.
     double at(const Vec3& p) const {
         const double q[3] = {p.x, p.y, p.z};
         int idx[3];
         for (int a = 0; a < 3; ++a) {
-            if (!(q[a] >= lo[a] && q[a] <= hi[a])) return 0.0;
+            if (!(q[a] >= occ_lo[a] && q[a] <= occ_hi[a])) return 0.0;
             idx[a] = std::min(n[a] - 1, std::max(0, int((q[a] - lo[a]) * icell[a])));
         }
-        const int32_t slot = brick_slot[(std::ptrdiff_t(idx[0] >> kShift) * nb[1] + (idx[1] >> kShift)) * nb[2] + (idx[2] >> kShift)];
-        if (slot < 0) return 0.0;
+        const std::ptrdiff_t b = (std::ptrdiff_t(idx[0] >> kShift) * nb[1] + (idx[1] >> kShift)) * nb[2] + (idx[2] >> kShift);
+        if (brick_clear[b]) return 0.0;
+        const int32_t slot = brick_slot[b];
         constexpr int M = B - 1;
         return bricks[size_t(slot) * B * B * B + (((idx[0] & M) * B + (idx[1] & M)) * B + (idx[2] & M))];
     }
@@ -171,7 +177,10 @@ struct VoxelGrid {
         double z_floor = 0;          // valid for points at or above this height
         double f0[2] = {0, 0}, icell[2] = {1, 1};
         int nf[2] = {0, 0};
-        std::vector<float> span;     // per cell: bottom, top (+inf, -inf where no voxel reaches)
+        // Per cell the bottom and top face of the span as voxel face indices along z (top 0
+        // where no voxel reaches): 4 bytes a cell, so that the map stays in cache.
+        std::vector<uint16_t> span;
+        double z_lo = 0, z_cell = 1, z_pad = 0;  // a face's height: z_lo + index * z_cell (+- z_pad)
         // The heights [*z0, *z1] (z1 > x.z) outside which the ray from x has no density, or
         // false if it has none at all.
         bool meets(const Vec3& x, double* z0, double* z1) const {
@@ -180,9 +189,10 @@ struct VoxelGrid {
             if (all || !(x.z >= z_floor)) return true;
             const double fx = (x.x - sx * x.z - f0[0]) * icell[0], fy = (x.y - sy * x.z - f0[1]) * icell[1];
             if (!(fx >= 0.0 && fy >= 0.0 && fx < nf[0] && fy < nf[1])) return false;
-            const float* c = &span[2 * (size_t(fx) * nf[1] + size_t(fy))];
-            *z0 = c[0];
-            *z1 = c[1];
+            const uint16_t* c = &span[2 * (size_t(fx) * nf[1] + size_t(fy))];
+            if (c[1] == 0) return false;
+            *z0 = z_lo + c[0] * z_cell - z_pad;
+            *z1 = z_lo + c[1] * z_cell + z_pad;
             return *z1 > x.z;
         }
     };
@@ -196,6 +206,7 @@ struct VoxelGrid {
         // spread / cos^2(theta + spread) (theta: up's zenith angle), as |d(tan)| <= dtheta / cos^2.
         const double theta = std::acos(std::clamp(up.z, -1.0, 1.0));
         if (!(theta + spread < 1.48)) return;  // within 5 degrees of the horizon: walk always
+        if (n[2] >= 0xFFFF) return;            // (face indices in 16 bits)
         m->all = false;
         m->sx = up.x / up.z;
         m->sy = up.y / up.z;
@@ -217,11 +228,13 @@ struct VoxelGrid {
             m->icell[a] = 1.0 / size;
             m->nf[a] = std::max(1, int(std::ceil((fhi[a] - flo[a]) * m->icell[a])));
         }
-        constexpr float inf = std::numeric_limits<float>::infinity();
+        m->z_lo = lo[2];
+        m->z_cell = cell[2];
+        m->z_pad = 1e-9 * (hi[2] - lo[2]);  // rounding: the span stays conservative
         m->span.resize(2 * size_t(m->nf[0]) * m->nf[1]);
         for (size_t c = 0; c < m->span.size(); c += 2) {
-            m->span[c] = inf;
-            m->span[c + 1] = -inf;
+            m->span[c] = 0xFFFF;
+            m->span[c + 1] = 0;
         }
         const double eps[2] = {1e-9 * (hi[0] - lo[0]), 1e-9 * (hi[1] - lo[1])};  // rounding
         for (int ib = 0; ib < nb[0]; ++ib)
@@ -236,8 +249,7 @@ struct VoxelGrid {
                                 if (!(v[(li * B + lj) * B + lk] > 0.f)) continue;
                                 const int idx[3] = {ib * B + li, jb * B + lj, kb * B + lk};
                                 const double z0 = lo[2] + idx[2] * cell[2], z1 = z0 + cell[2];
-                                // (Rounded outwards to float: the span stays conservative.)
-                                const float zbot = std::nextafter(float(z0), -inf), ztop = std::nextafter(float(z1), inf);
+                                const uint16_t fbot = uint16_t(idx[2]), ftop = uint16_t(idx[2] + 1);
                                 const double w = dh * (z1 - m->z_floor);
                                 int r0[2], r1[2];
                                 for (int a = 0; a < 2; ++a) {
@@ -249,9 +261,9 @@ struct VoxelGrid {
                                 }
                                 for (int i = r0[0]; i <= r1[0]; ++i)
                                     for (int j = r0[1]; j <= r1[1]; ++j) {
-                                        float* c = &m->span[2 * (size_t(i) * m->nf[1] + j)];
-                                        c[0] = std::min(c[0], zbot);
-                                        c[1] = std::max(c[1], ztop);
+                                        uint16_t* c = &m->span[2 * (size_t(i) * m->nf[1] + j)];
+                                        c[0] = std::min(c[0], fbot);
+                                        c[1] = std::max(c[1], ftop);
                                     }
                             }
                 }
@@ -393,12 +405,12 @@ void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, dou
         const std::ptrdiff_t n0 = std::ptrdiff_t(g.nb[1]) * g.nb[2], n1 = g.nb[2];
         for (;;) {
             const size_t b = (i >> kShift) * n0 + (j >> kShift) * n1 + (k >> kShift);
-            const int32_t slot = g.brick_slot[b];
-            if (slot < 0) {
+            const int clear = g.brick_clear[b];
+            if (clear) {
                 // An empty brick and its clear cube (radius r): the voxel faces left along
                 // each axis before leaving the cube, where the ray leaves first, and every
                 // axis's voxel there. Stopping inside, the voxel stays the cube's entry one.
-                const int extra = (-slot - 1) * B;
+                const int extra = (clear - 1) * B;
                 const int li = (si > 0 ? M - (i & M) : (i & M)) + extra;
                 const int lj = (sj > 0 ? M - (j & M) : (j & M)) + extra;
                 const int lk = (sk > 0 ? M - (k & M) : (k & M)) + extra;
@@ -427,7 +439,7 @@ void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, dou
                 continue;
             }
             // A non-empty brick: voxel after voxel until the ray leaves it or the walk stops.
-            const float* v = &g.bricks[size_t(slot) * B * B * B];
+            const float* v = &g.bricks[size_t(g.brick_slot[b]) * B * B * B];
             bool stop = false;
             // The voxel's part [t, tb) with density rho: true if the walk stops in it.
             auto voxel = [&](double rho, double tn) {
