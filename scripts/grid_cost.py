@@ -17,7 +17,7 @@ renderer's own time (building the grid and rendering, not reading and validating
 as in spectral scenes).
 
     .venv/bin/python scripts/grid_cost.py [--n 256] [--repeat 3] [--what both|image] [--bands 1]
-                                          [--json out.json]
+                                          [--threads 0] [--json out.json]
 """
 from __future__ import annotations
 
@@ -114,6 +114,7 @@ def main(argv=None) -> int:
                          "image: a 160 x 120 camera at 64 spp alone")
     ap.add_argument("--bands", type=int, default=1,
                     help="spectral bands (the same IOPs in each): one path serves them all")
+    ap.add_argument("--threads", type=int, default=0, help="render threads (0: all cores)")
     ap.add_argument("--json", help="write the times here")
     args = ap.parse_args(argv)
     tmp = Path(tempfile.mkdtemp(prefix="photic_grid_cost_"))
@@ -129,15 +130,21 @@ def main(argv=None) -> int:
         for integ in args.integrators.split(","):
             for name, rho in fields.items():
                 t0 = time.perf_counter()
-                res = render(scene(integ, rho, args.what, args.bands))
+                sc = scene(integ, rho, args.what, args.bands)
+                if args.threads:
+                    sc.settings.threads = args.threads
+                res = render(sc)
                 times.setdefault((integ, name), []).append(time.perf_counter() - t0)
                 render_times.setdefault((integ, name), []).append(res.stats["time_s"])
         print(f"repeat {rep + 1}/{args.repeat} done", flush=True)
     setup = ("64 x 48 camera at 16 spp + 9 radiometers at 1e5 samples" if args.what == "both"
              else "160 x 120 camera at 64 spp")
-    print(f"\n{args.n}^3 grid, {setup}, {args.bands} band(s); median of {args.repeat}")
+    print(f"\n{args.n}^3 grid, {setup}, {args.bands} band(s), "
+          f"{args.threads or 'all'} thread(s); median of {args.repeat}")
+    print("(x homog.: ratio of the medians; paired: median of each repeat's ratio of renders made"
+          " one after the other, which the shared machine's drifts disturb less)")
     print(f"{'integrator':<10} {'water':<14} {'non-zero':>9} {'median s':>9} {'x homog.':>9}"
-          f" {'render s':>9} {'x homog.':>9}")
+          f" {'render s':>9} {'x homog.':>9} {'paired':>7}")
     rows = []
     for integ in args.integrators.split(","):
         ref = statistics.median(times[(integ, "homogeneous")])
@@ -145,15 +152,19 @@ def main(argv=None) -> int:
         for name in fields:
             t = statistics.median(times[(integ, name)])
             tr = statistics.median(render_times[(integ, name)])
+            paired = statistics.median(a / b for a, b in zip(render_times[(integ, name)],
+                                                               render_times[(integ, "homogeneous")]))
             print(f"{integ:<10} {name:<14} {nz[name]:>8.2%} {t:>9.2f} {t / ref:>9.2f}"
-                  f" {tr:>9.2f} {tr / ref_r:>9.2f}")
+                  f" {tr:>9.2f} {tr / ref_r:>9.2f} {paired:>7.2f}")
             rows.append({"integrator": integ, "water": name, "nonzero": nz[name], "median_s": t,
                          "ratio": t / ref, "times_s": times[(integ, name)],
                          "render_median_s": tr, "render_ratio": tr / ref_r,
+                         "render_paired_ratio": paired,
                          "render_times_s": render_times[(integ, name)]})
     if args.json:
         with open(args.json, "w") as f:
             json.dump({"n": args.n, "repeat": args.repeat, "what": args.what, "bands": args.bands,
+                       "threads": args.threads,
                    "rows": rows}, f, indent=1)
     return 0
 
