@@ -61,10 +61,7 @@ void Scene::set_grid_coefficients(Water& w) const {
     }
     w.majorant = std::max(w.majorant, w.grid_s0 + g.rho_max * w.grid_s1);
     double cmean = 0.0;
-    w.grid_c0 = w.grid_c1 = 0.0;
     for (int k = 0; k < nbands; ++k) {
-        w.grid_c0 += B.c_path.v[k] / nbands;
-        w.grid_c1 += U.c_path.v[k] / nbands;
         w.c_beam_min = std::min(w.c_beam_min, B.c_beam.v[k] + g.rho_min * U.c_beam.v[k]);
         w.a_min = std::min(w.a_min, B.a.v[k]);
         cmean += (B.c_path.v[k] + g.rho_max * U.c_path.v[k]) / nbands;

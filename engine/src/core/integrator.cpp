@@ -43,31 +43,12 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
     const Water& w = waters[medium];
     *out = Spectrum();
     if (!(w.c_path_mean > 0.0) || !(T > 0.0)) return;
-    const double alpha = 1.0 - d.z / beam_mu_w;
-    double k = w.c_path_mean * alpha;
+    double k = w.c_path_mean * (1.0 - d.z / beam_mu_w);
     bool finite = T < kInf;
     if (!finite && k < 0.5 * w.c_path_mean) k = 0.5 * w.c_path_mean;
     double u = rng.uniform();
     double t, pdf;
-    // Gridded water, a segment walked for its beam term alone (not deferred) that descends
-    // or runs level (alpha >= 1): the distance follows the local attenuation instead,
-    // k(t) = alpha c(t) with c the band-mean c_path where the density is rho(t), drawn by
-    // regular tracking along the walk that gives the attenuation back to o anyway. In a
-    // plume the base rate put the points metres deep where little light comes back, after
-    // long walks there and from there to the surface. No point before T (probability
-    // exp(-int_0^T k)): no contribution, which keeps the estimate unbiased.
-    double r_grid = 0.0, rho_grid = 0.0;
-    bool tracked = false;
-    if (w.grid && !deferred_t && alpha >= 1.0 && w.grid_c0 > 0.0) {
-        VoxelGrid::Cursor cur(*w.grid, o, d);
-        const double xi0 = -std::log(1.0 - u), s0 = alpha * w.grid_c0, s1 = alpha * w.grid_c1;
-        double xi = xi0;
-        if (!cur.march(s0, s1, &xi, T, &rho_grid)) return;
-        t = cur.position();
-        r_grid = cur.integral();
-        pdf = (s0 + s1 * rho_grid) * std::exp(-xi0);  // (int_0^t k = xi0)
-        tracked = true;
-    } else if (finite && std::fabs(k) * T < 1e-6) {
+    if (finite && std::fabs(k) * T < 1e-6) {
         t = u * T;
         pdf = 1.0 / T;
     } else {
@@ -84,13 +65,11 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
     // The local scattering at x (in a grid the base's plus the density rx times the unit's)
     // and the attenuation back to o (through the layers or voxels crossed).
     const WaterLayer& L = w.grid ? w.layers[0] : w.layer_at(x.z);
-    const double rx = tracked ? rho_grid : w.grid ? w.grid->at(x) : 0.0;
+    const double rx = w.grid ? w.grid->at(x) : 0.0;
     double att[kMaxBands];
     if (deferred_t) {  // gridded water only: the caller's walk along the segment will tell
         *deferred_t = t;
         for (int kb = 0; kb < nbands; ++kb) att[kb] = 1.0;
-    } else if (tracked) {
-        w.grid_transmittance(t, r_grid, nbands, att);
     } else if (!w.varying()) {
         for (int kb = 0; kb < nbands; ++kb) att[kb] = std::exp(-L.c_path.v[kb] * t);
     } else if (w.grid) {

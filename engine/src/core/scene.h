@@ -75,9 +75,6 @@ struct Water {
     // The free paths' majorant in a grid where the density is rho: s0 + s1 rho >= b_path in
     // every band (s0, s1: the base and unit b_path's largest over the bands).
     double grid_s0 = 0.0, grid_s1 = 0.0;
-    // The band means of the base and unit c_path (the beam points' distances on segments
-    // walked for them alone follow the local attenuation: see beam_scatter_along).
-    double grid_c0 = 0.0, grid_c1 = 0.0;
     bool varying() const { return layers.size() > 1 || grid; }
     // A grid's coefficients where its density is r: the base plus r times the unit (written
     // into *scratch). Only the fields the integrators read at a point are filled.
