@@ -10,7 +10,8 @@ A sunlit sea below a flat surface, a 64 x 48 camera looking down at 16 samples p
 
 for the hybrid and the path integrator. Each case is rendered ``--repeat`` times, alternating
 with the others, and the median is quoted with the ratio to the homogeneous render measured in
-the same run (the machine is shared: ratios are what to compare). Times include the scene's
+the same run (the machine is shared: ratios are what to compare; every other repeat renders
+the fields in reverse order). Times include the scene's
 setup (reading the .npz, validation, building the bricks); the "render" columns are the
 renderer's own time (building the grid and rendering, not reading and validating the scene).
 ``--bands N`` renders N bands with the same IOPs in each (one geometric path serves them all,
@@ -128,7 +129,9 @@ def main(argv=None) -> int:
     render_times: dict = {}  # the renderer's own time: without reading the scene and its .npz
     for rep in range(args.repeat):
         for integ in args.integrators.split(","):
-            for name, rho in fields.items():
+            # every other repeat in reverse order, so that no field always follows another
+            order = list(fields.items()) if rep % 2 == 0 else list(fields.items())[::-1]
+            for name, rho in order:
                 t0 = time.perf_counter()
                 sc = scene(integ, rho, args.what, args.bands)
                 if args.threads:
