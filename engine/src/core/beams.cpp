@@ -532,10 +532,13 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
     if (!w.varying() || !exact) {
         const Spectrum& c = w.layers[0].c_beam;
         for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * std::exp(-c.v[k] * l) / (a_eff * md);
-    } else {  // the beam's straight path from the surface (y - d l) to y through the layers
+    } else if (w.grid) {  // the beam's straight path from the surface (y - d l) to y through the voxels
+        double att[kMaxBands];
+        w.grid_transmittance(l, w.grid->integral(y - d * l, y, l), nbands, att);
+        for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * att[k] / (a_eff * md);
+    } else {  // the same through the layers
         Spectrum tau;
-        if (w.grid) w.grid_optical_depth(true, y - d * l, y, l, nbands, &tau);
-        else w.add_optical_depth(&WaterLayer::c_beam, y.z - d.z * l, y.z, l, nbands, &tau);
+        w.add_optical_depth(&WaterLayer::c_beam, y.z - d.z * l, y.z, l, nbands, &tau);
         for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * std::exp(-tau.v[k]) / (a_eff * md);
     }
     return true;

@@ -235,7 +235,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     for (int kb = 0; kb < nb; ++kb) out.beam_volume.v[kb] += beam_wait.v[kb] * att[kb];
                     t_beam = -1.0;
                 }
-                if (end) w.grid_tau(false, t_end, r_end, nb, &tau_a);
+                if (end) w.grid_absorption(t_end, r_end, nb, &tau_a);
             };
             if (w.majorant > 0.0 && !w.grid) dt = flight();
             if (!hybrid && w.majorant > 0.0 && !w.grid) {

@@ -97,20 +97,12 @@ struct Water {
             }
         return *scratch;
     }
-    // Grid: adds the optical depth of the absorption (attenuation = false) or of a + b_path
-    // (c_path = c_beam) along the segment p0 -> p1 of length len, per band.
-    void grid_optical_depth(bool attenuation, const Vec3& p0, const Vec3& p1, double len, int nb,
-                            Spectrum* tau) const {
-        grid_tau(attenuation, len, grid->integral(p0, p1, len), nb, tau);
+    // Grid, a segment of length len over which the density integrates to r: its absorption
+    // optical depth added to *tau, and its attenuation exp(-c_path optical depth) into
+    // t[0..nb) (no spectrum to clear: these run once or twice per path segment), per band.
+    void grid_absorption(double len, double r, int nb, Spectrum* tau) const {
+        for (int k = 0; k < nb; ++k) tau->v[k] += layers[0].a.v[k] * len + grid_unit.a.v[k] * r;
     }
-    // The same for a segment of length len over which the density integrates to r.
-    void grid_tau(bool attenuation, double len, double r, int nb, Spectrum* tau) const {
-        const Spectrum& cb = attenuation ? layers[0].c_path : layers[0].a;
-        const Spectrum& cu = attenuation ? grid_unit.c_path : grid_unit.a;
-        for (int k = 0; k < nb; ++k) tau->v[k] += cb.v[k] * len + cu.v[k] * r;
-    }
-    // exp(-c_path optical depth) per band of such a segment, into t[0..nb) (no spectrum to
-    // clear: these run once or twice per path segment).
     void grid_transmittance(double len, double r, int nb, double* t) const {
         for (int k = 0; k < nb; ++k) t[k] = std::exp(-(layers[0].c_path.v[k] * len + grid_unit.c_path.v[k] * r));
     }

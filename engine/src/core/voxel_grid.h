@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <limits>
 #include <stdexcept>
 #include <vector>
 #include "vec.h"
@@ -28,12 +27,12 @@ struct VoxelGrid {
     // Non-empty bricks only, B^3 densities each (local (i, j, k) at (i * B + j) * B + k): a
     // sparse plume takes little memory, and a ray's voxels in one brick share cache lines.
     std::vector<float> bricks;
-    // Per brick its block in `bricks` (-1: empty), and in a byte (a quarter of the memory,
-    // so that the array stays in cache: random lookups in the int array cost more than the
-    // rest of a point's density lookup) 0 for a non-empty brick or, for an empty one, r in
-    // 1..kClearCap such that every brick within r - 1 bricks of it (the cube of side 2 r - 1
-    // around it) is empty.
+    // Per brick its block in `bricks` (-1: empty).
     std::vector<int32_t> brick_slot;
+    // Per brick 0 if non-empty, else r in 1..kClearCap such that every brick within r - 1
+    // bricks of it (the cube of side 2 r - 1 around it) is empty. A byte, not the slot's
+    // sign: a quarter of the memory stays in cache for random lookups, which were most of a
+    // point's density lookup with the int array.
     std::vector<int8_t> brick_clear;
     bool occupied = false;            // any rho > 0; then the box of those voxels:
     double occ_lo[3] = {0, 0, 0}, occ_hi[3] = {0, 0, 0};
