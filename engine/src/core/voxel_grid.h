@@ -463,25 +463,27 @@ void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, dou
                 t = tb;
                 return tn >= tv;
             };
+            // The voxel's offset in the brick, moved along with the indices.
+            int off = (((i & M) << kShift) + (j & M)) * B + (k & M);
             for (;;) {
-                const double rho = v[(((i & M) << kShift) + (j & M)) * B + (k & M)];
+                const double rho = v[off];
                 if (tz <= tx && tz <= ty) {
                     if (voxel(rho, tz)) { stop = true; break; }
-                    k += sk; tz += dz;
+                    k += sk; tz += dz; off += sk;
                     if ((k & M) == ek) {
                         if (unsigned(k) >= unsigned(g.n[2])) { t1_ = t; stop = true; }
                         break;
                     }
                 } else if (tx <= ty) {
                     if (voxel(rho, tx)) { stop = true; break; }
-                    i += si; tx += dx;
+                    i += si; tx += dx; off += si * (B * B);
                     if ((i & M) == ei) {
                         if (unsigned(i) >= unsigned(g.n[0])) { t1_ = t; stop = true; }
                         break;
                     }
                 } else {
                     if (voxel(rho, ty)) { stop = true; break; }
-                    j += sj; ty += dy;
+                    j += sj; ty += dy; off += sj * B;
                     if ((j & M) == ej) {
                         if (unsigned(j) >= unsigned(g.n[1])) { t1_ = t; stop = true; }
                         break;
