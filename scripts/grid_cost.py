@@ -15,14 +15,18 @@ the fields in reverse order). Times include the scene's
 setup (reading the .npz, validation, building the bricks); the "render" columns are the
 renderer's own time (building the grid and rendering, not reading and validating the scene).
 ``--bands N`` renders N bands with the same IOPs in each (one geometric path serves them all,
-as in spectral scenes).
+as in spectral scenes). ``--what example`` renders the sediment-plume example's scene instead
+(``example_blends/make_examples.py``: shore, 10 bands, Case-2 IOP models, a camera above the sea
+at 160 x 90 and 16 spp, 5 radiometers above the water at 1e5 samples) with its plume resampled
+to a 256^3 grid, against the same scene with the clear water alone.
 
-    .venv/bin/python scripts/grid_cost.py [--n 256] [--repeat 3] [--what both|image] [--bands 1]
+    .venv/bin/python scripts/grid_cost.py [--n 256] [--repeat 3] [--what both|image|example] [--bands 1]
                                           [--threads 0] [--json out.json]
 """
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import statistics
 import tempfile
@@ -66,7 +70,35 @@ def dense(n: int, seed: int = 6) -> np.ndarray:
     return np.random.default_rng(seed).random((n, n, n), dtype=np.float32)
 
 
+def _examples():
+    """example_blends/make_examples.py as a module (it imports bpy only to write .blend files)."""
+    path = Path(__file__).resolve().parents[1] / "example_blends" / "make_examples.py"
+    spec = importlib.util.spec_from_file_location("make_examples", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def example_scene(integrator: str, density_file: Path | None) -> Scene:
+    """The sediment-plume example's scene at 160 x 90, 16 spp, radiometers at 1e5 samples."""
+    ex = _examples()
+    d = ex.plume_scene_dict(resolution=(160, 90), samples=16)
+    water = d["water"][0]
+    del water["iops"]
+    if density_file is None:  # the clear water the plume enters
+        water["iop_model"] = ex.clear_water_model()
+    else:
+        water["iop_grid"] = {"base": {"iop_model": ex.clear_water_model()},
+                             "unit": {"iop_model": ex.plume_unit_model()},
+                             "origin": list(ex.PLUME_BOX_ORIGIN), "size": list(ex.PLUME_BOX_SIZE),
+                             "file": density_file.name}
+    d["settings"].update(integrator=integrator, radiometer_samples=100_000)
+    return Scene.from_dict(d, base_dir=density_file.parent if density_file else None)
+
+
 def scene(integrator: str, density_file: Path | None, what: str = "both", bands: int = 1) -> Scene:
+    if what == "example":
+        return example_scene(integrator, density_file)
     water = {"name": "sea", "type": "ocean", "ior": 1.34, "surface": {"kind": "flat", "z": 0.0}}
     if density_file is None:
         water["iops"] = BASE
@@ -110,17 +142,23 @@ def main(argv=None) -> int:
     ap.add_argument("--n", type=int, default=256, help="voxels per axis")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--integrators", default="hybrid,path")
-    ap.add_argument("--what", choices=["both", "image"], default="both",
+    ap.add_argument("--what", choices=["both", "image", "example"], default="both",
                     help="both: the camera and the 9 radiometers (in and near the plume); "
-                         "image: a 160 x 120 camera at 64 spp alone")
+                         "image: a 160 x 120 camera at 64 spp alone; example: the sediment-plume "
+                         "example's scene with its plume on a 256^3 grid")
     ap.add_argument("--bands", type=int, default=1,
                     help="spectral bands (the same IOPs in each): one path serves them all")
     ap.add_argument("--threads", type=int, default=0, help="render threads (0: all cores)")
     ap.add_argument("--json", help="write the times here")
     args = ap.parse_args(argv)
+    if args.what == "example":  # the example's own bands
+        args.bands = len(_examples().PLUME_BANDS)
     tmp = Path(tempfile.mkdtemp(prefix="photic_grid_cost_"))
     fields, nz = {"homogeneous": None}, {"homogeneous": 0.0}
-    for name, make in (("sparse plume", plume), ("random dense", dense)):
+    makers = (("sparse plume", plume), ("random dense", dense))
+    if args.what == "example":
+        makers = (("example plume", lambda n: _examples().plume_density((n, n, n))),)
+    for name, make in makers:
         rho = make(args.n)
         nz[name] = float(np.count_nonzero(rho)) / rho.size
         fields[name] = tmp / (name.replace(" ", "_") + ".npz")
@@ -140,9 +178,11 @@ def main(argv=None) -> int:
                 times.setdefault((integ, name), []).append(time.perf_counter() - t0)
                 render_times.setdefault((integ, name), []).append(res.stats["time_s"])
         print(f"repeat {rep + 1}/{args.repeat} done", flush=True)
-    setup = ("64 x 48 camera at 16 spp + 9 radiometers at 1e5 samples" if args.what == "both"
-             else "160 x 120 camera at 64 spp")
-    print(f"\n{args.n}^3 grid, {setup}, {args.bands} band(s), "
+    setup = {"both": "64 x 48 camera at 16 spp + 9 radiometers at 1e5 samples",
+             "image": "160 x 120 camera at 64 spp",
+             "example": "the plume example's scene (160 x 90 camera at 16 spp + 5 radiometers "
+                        "at 1e5 samples, 10 bands)"}[args.what]
+    print(f"\n{args.n}^3 grid, {setup}" + ("" if args.what == "example" else f", {args.bands} band(s)") + ", "
           f"{args.threads or 'all'} thread(s); median of {args.repeat}")
     print("(x homog.: ratio of the medians; paired: median of each repeat's ratio of renders made"
           " one after the other, which the shared machine's drifts disturb less)")
