@@ -400,6 +400,7 @@ void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, dou
         const int si = si_, sj = sj_, sk = sk_;
         double tx = tx_, ty = ty_, tz = tz_;
         const double dx = dx_, dy = dy_, dz = dz_;
+        const double idz = 1.0 / dz;  // (0 for a ray with d.z = 0: no runs)
         const int ei = si > 0 ? 0 : M, ej = sj > 0 ? 0 : M, ek = sk > 0 ? 0 : M;  // entry faces
         const std::ptrdiff_t n0 = std::ptrdiff_t(g.nb[1]) * g.nb[2], n1 = g.nb[2];
         for (;;) {
@@ -468,6 +469,32 @@ void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, dou
             for (;;) {
                 const double rho = v[off];
                 if (tz <= tx && tz <= ty) {
+                    {
+                        // A run along z in one go: this voxel and the next c, whose exit faces
+                        // all come before the next x and y faces and the walk's end, within
+                        // the brick (steep rays in thin voxels cross many: the beams' walks
+                        // towards the sun). In tracking only if the run's optical depth stays
+                        // below xi; else voxel by voxel to the collision.
+                        const int left = sk > 0 ? M - (k & M) : (k & M);
+                        const int c = std::min(left, int((std::min(std::min(tx, ty), tv) - tz) * idz));
+                        if (c > 0) {
+                            double run = 0.0;
+                            for (int m = 1; m <= c; ++m) run += v[off + m * sk];
+                            const double r = rho * (tz - t) + run * dz, te_run = tz + c * dz;
+                            const double gain = kTrack ? s0 * (te_run - t) + s1 * r : 0.0;
+                            if (!kTrack || gain < xi) {
+                                if (kTrack) xi -= gain;
+                                sum += r;
+                                t = te_run;
+                                k += (c + 1) * sk; tz = t + dz; off += (c + 1) * sk;
+                                if (c == left) {
+                                    if (unsigned(k) >= unsigned(g.n[2])) { t1_ = t; stop = true; }
+                                    break;
+                                }
+                                continue;
+                            }
+                        }
+                    }
                     if (voxel(rho, tz)) { stop = true; break; }
                     k += sk; tz += dz; off += sk;
                     if ((k & M) == ek) {
