@@ -207,6 +207,16 @@ def _sparse_field():
     return rho
 
 
+def _thin_field():
+    """12 x 10 x 96 random densities (a tenth of them zero) in voxels 16-26 times thinner along
+    z than across: most rays cross runs of z voxels between x and y faces, which the walk sums
+    in one go."""
+    rng = np.random.default_rng(12)
+    rho = rng.random((12, 10, 96)) * 2.0
+    rho[rng.random(rho.shape) < 0.1] = 0.0
+    return rho
+
+
 def absorbing_grid(rho, box) -> dict:
     """A sunlit sea with b = 0 whose absorption is 0.05 + 0.3 rho per metre over the box
     (as a scene dict, one radiometer to replace)."""
@@ -239,15 +249,16 @@ def _exact_integral(rho, lo, size, p0, p1):
     return float(np.sum(dens * np.diff(t)))
 
 
-@pytest.mark.parametrize("field", ["sparse 37x29x45", "one voxel", "full 9x8x17"])
+@pytest.mark.parametrize("field", ["sparse 37x29x45", "one voxel", "full 9x8x17", "thin 12x10x96"])
 def test_grid_walk_equals_exact_integral(field):
-    """The voxel walk (one DDA with empty bricks crossed in a jump) against numpy: 600 random
-    segments starting and ending inside, outside and across the box, some along axes and
-    voxel faces, through partial bricks at the far faces; relative error < 1e-9."""
+    """The voxel walk (one DDA with empty bricks crossed in a jump and runs along z summed in
+    one go) against numpy: 600 random segments starting and ending inside, outside and across
+    the box, some along axes and voxel faces, through partial bricks at the far faces;
+    relative error < 1e-9."""
     from photic.compile import compile_scene
     rng = np.random.default_rng(3)
     rho = {"sparse 37x29x45": _sparse_field, "one voxel": lambda: np.ones((1, 1, 1)),
-           "full 9x8x17": lambda: rng.random((9, 8, 17)) + 0.1}[field]()
+           "full 9x8x17": lambda: rng.random((9, 8, 17)) + 0.1, "thin 12x10x96": _thin_field}[field]()
     box = ([-1.5, -2.0, -4.0], [3.0, 4.0, 4.2])
     d = absorbing_grid(rho, box)
     core = compile_scene(Scene.from_dict(d))
@@ -299,14 +310,16 @@ def test_grid_density_lookup(field):
     assert sum(core.grid_density(0, p.tolist()) > 0 for p in pts) > 100 or field == "one voxel"
 
 
-def test_regular_tracking_inverts_the_optical_depth_exactly():
+@pytest.mark.parametrize("field", ["sparse 37x29x45", "thin 12x10x96"])
+def test_regular_tracking_inverts_the_optical_depth_exactly(field):
     """Cursor::march (the free paths in gridded water) against numpy: along 300 random rays
-    through the sparse field, the position where the optical depth of s0 + s1 rho reaches xi
+    through the field, the position where the optical depth of s0 + s1 rho reaches xi
     (xi ~ Exp(1), some beyond t_stop): the depth up to it equals xi to 1e-9, the density there
-    is the voxel's, and a march stopped at t_stop reports the depth left."""
+    is the voxel's, and a march stopped at t_stop reports the depth left (in the thin voxels
+    also where xi is reached within a run along z)."""
     from photic.compile import compile_scene
     rng = np.random.default_rng(8)
-    rho = _sparse_field()
+    rho = {"sparse 37x29x45": _sparse_field, "thin 12x10x96": _thin_field}[field]()
     box = ([-1.5, -2.0, -4.0], [3.0, 4.0, 4.2])
     d = absorbing_grid(rho, box)
     core = compile_scene(Scene.from_dict(d))
@@ -332,7 +345,7 @@ def test_regular_tracking_inverts_the_optical_depth_exactly():
             stopped += 1
             assert t == pytest.approx(t_stop, rel=1e-12)
             assert left == pytest.approx(xi - depth, rel=1e-9, abs=1e-12) and left >= 0
-    assert reached > 50 and stopped > 50
+    assert reached > 40 and stopped > 40
 
 
 def _on_face(p0, p1, lo, cell):
