@@ -236,6 +236,30 @@ struct VoxelGrid {
             m->span[c + 1] = 0;
         }
         const double eps[2] = {1e-9 * (hi[0] - lo[0]), 1e-9 * (hi[1] - lo[1])};  // rounding
+        // The map's cells under voxel (i, j, k)'s widened footprint: r0[a] .. r1[a].
+        auto cells = [&](int i, int j, int k, int* r0, int* r1) {
+            const int idx[2] = {i, j};
+            const double z0 = lo[2] + k * cell[2], z1 = z0 + cell[2];
+            const double w = dh * (z1 - m->z_floor);
+            for (int a = 0; a < 2; ++a) {
+                const double x0 = lo[a] + idx[a] * cell[a], x1 = x0 + cell[a];
+                const double g0 = x0 - std::max(s[a] * z0, s[a] * z1) - w - m->f0[a];
+                const double g1 = x1 - std::min(s[a] * z0, s[a] * z1) + w - m->f0[a];
+                // floor() by truncation (a libm call otherwise): equal where >= 0, and r0
+                // clamps to 0 anyway; r1 < 0 (no cell) kept apart.
+                const double f0 = (g0 - eps[a]) * m->icell[a], f1 = (g1 + eps[a]) * m->icell[a];
+                r0[a] = f0 > 0.0 ? int(f0) : 0;
+                r1[a] = f1 >= 0.0 ? std::min(m->nf[a] - 1, int(f1)) : -1;
+            }
+        };
+        auto update = [&](const int* r0, const int* r1, uint16_t bot, uint16_t top) {
+            for (int i = r0[0]; i <= r1[0]; ++i)
+                for (int j = r0[1]; j <= r1[1]; ++j) {
+                    uint16_t* c = &m->span[2 * (size_t(i) * m->nf[1] + j)];
+                    c[0] = std::min(c[0], bot);
+                    c[1] = std::max(c[1], top);
+                }
+        };
         for (int ib = 0; ib < nb[0]; ++ib)
             for (int jb = 0; jb < nb[1]; ++jb)
                 for (int kb = 0; kb < nb[2]; ++kb) {
@@ -243,28 +267,32 @@ struct VoxelGrid {
                     if (slot < 0) continue;
                     const float* v = &bricks[size_t(slot) * B * B * B];
                     for (int li = 0; li < B; ++li)
-                        for (int lj = 0; lj < B; ++lj)
-                            for (int lk = 0; lk < B; ++lk) {
-                                if (!(v[(li * B + lj) * B + lk] > 0.f)) continue;
-                                const int idx[3] = {ib * B + li, jb * B + lj, kb * B + lk};
-                                const double z0 = lo[2] + idx[2] * cell[2], z1 = z0 + cell[2];
-                                const uint16_t fbot = uint16_t(idx[2]), ftop = uint16_t(idx[2] + 1);
-                                const double w = dh * (z1 - m->z_floor);
-                                int r0[2], r1[2];
-                                for (int a = 0; a < 2; ++a) {
-                                    const double x0 = lo[a] + idx[a] * cell[a], x1 = x0 + cell[a];
-                                    const double g0 = x0 - std::max(s[a] * z0, s[a] * z1) - w - m->f0[a];
-                                    const double g1 = x1 - std::min(s[a] * z0, s[a] * z1) + w - m->f0[a];
-                                    r0[a] = std::max(0, int(std::floor((g0 - eps[a]) * m->icell[a])));
-                                    r1[a] = std::min(m->nf[a] - 1, int(std::floor((g1 + eps[a]) * m->icell[a])));
+                        for (int lj = 0; lj < B; ++lj) {
+                            const float* row = v + (li * B + lj) * B;
+                            const int i = ib * B + li, j = jb * B + lj;
+                            // Per run of non-zero voxels up the row: the cell ranges change
+                            // monotonically with the height (the footprint's edges move
+                            // linearly), so if the run's lowest and highest voxels cover the
+                            // same cells, so do all between and one update serves the run
+                            // (thin voxels: most runs); else voxel by voxel.
+                            for (int lk = 0; lk < B;) {
+                                if (!(row[lk] > 0.f)) { ++lk; continue; }
+                                const int ka = lk;
+                                while (lk < B && row[lk] > 0.f) ++lk;
+                                const int k0 = kb * B + ka, k1 = kb * B + lk - 1;
+                                int a0[2], a1[2], b0[2], b1[2];
+                                cells(i, j, k0, a0, a1);
+                                cells(i, j, k1, b0, b1);
+                                if (a0[0] == b0[0] && a0[1] == b0[1] && a1[0] == b1[0] && a1[1] == b1[1]) {
+                                    update(a0, a1, uint16_t(k0), uint16_t(k1 + 1));
+                                    continue;
                                 }
-                                for (int i = r0[0]; i <= r1[0]; ++i)
-                                    for (int j = r0[1]; j <= r1[1]; ++j) {
-                                        uint16_t* c = &m->span[2 * (size_t(i) * m->nf[1] + j)];
-                                        c[0] = std::min(c[0], fbot);
-                                        c[1] = std::max(c[1], ftop);
-                                    }
+                                for (int k = k0; k <= k1; ++k) {
+                                    cells(i, j, k, a0, a1);
+                                    update(a0, a1, uint16_t(k), uint16_t(k + 1));
+                                }
                             }
+                        }
                 }
     }
 
