@@ -1,7 +1,19 @@
 #include "phase.h"
 #include <algorithm>
+#include <cstring>
 
 namespace photic {
+
+namespace {
+
+// The top bits of a non-negative double: its exponent and the first m mantissa bits.
+uint64_t x_key(double x, int m) {
+    uint64_t bits;
+    std::memcpy(&bits, &x, sizeof bits);
+    return bits >> (52 - m);
+}
+
+}  // namespace
 
 PhaseFunction PhaseFunction::table(const std::vector<double>& x, const std::vector<double>& v) {
     if (x.size() != v.size() || x.size() < 2)
@@ -31,7 +43,34 @@ PhaseFunction PhaseFunction::table(const std::vector<double>& x, const std::vect
         double u = double(j) / G;
         p.guide_[j] = uint32_t(std::upper_bound(p.cdf_.begin(), p.cdf_.end(), u) - p.cdf_.begin());
     }
+    // x's guide: bins from x_[1]'s to 2's key (none for a first node x_[1] <= 0, which the
+    // tolerance on x_[0] allows in principle: binary search then).
+    if (!(p.x_[1] > 0.0)) return p;
+    p.xkey0_ = x_key(p.x_[1], kXBits);
+    const uint64_t nbins = x_key(2.0, kXBits) - p.xkey0_ + 1;
+    p.xguide_.resize(nbins);
+    for (uint64_t b = 0; b < nbins; ++b) {
+        const uint64_t bits = (p.xkey0_ + b) << (52 - kXBits);
+        double lo;
+        std::memcpy(&lo, &bits, sizeof lo);
+        p.xguide_[b] = uint32_t(std::upper_bound(p.x_.begin(), p.x_.end(), lo) - p.x_.begin());
+    }
     return p;
+}
+
+size_t PhaseFunction::segment(double x) const {
+    // (x in [0, 2]: positive doubles order as their bits.)
+    const size_t n = x_.size();
+    if (xguide_.empty()) {
+        const size_t i = size_t(std::upper_bound(x_.begin(), x_.end(), x) - x_.begin());
+        return std::min(std::max<size_t>(i, 1), n - 1);
+    }
+    size_t i = 1;
+    if (x >= x_[1]) {
+        i = xguide_[x_key(x, kXBits) - xkey0_];
+        while (i < n && x_[i] <= x) ++i;
+    }
+    return std::min(i, n - 1);
 }
 
 double PhaseFunction::eval(double x) const {
@@ -48,8 +87,7 @@ double PhaseFunction::eval(double x) const {
             return 3.0 * (1.0 + a_ * mu * mu) / (4.0 * kPi * (3.0 + a_));
         }
         case kTable: {
-            auto it = std::upper_bound(x_.begin(), x_.end(), x);
-            size_t i = std::min<size_t>(std::max<ptrdiff_t>(it - x_.begin(), 1), x_.size() - 1);
+            const size_t i = segment(x);
             double t = (x - x_[i - 1]) / (x_[i] - x_[i - 1]);
             return v_[i - 1] + t * (v_[i] - v_[i - 1]);
         }
@@ -74,8 +112,7 @@ double PhaseFunction::cdf(double x) const {
             return std::clamp(m / (2.0 + 2.0 * a_ / 3.0), 0.0, 1.0);
         }
         case kTable: {
-            auto it = std::upper_bound(x_.begin(), x_.end(), x);
-            size_t i = std::min<size_t>(std::max<ptrdiff_t>(it - x_.begin(), 1), x_.size() - 1);
+            const size_t i = segment(x);
             double t = x - x_[i - 1];
             double v0 = v_[i - 1], slope = (v_[i] - v_[i - 1]) / (x_[i] - x_[i - 1]);
             return std::clamp(cdf_[i - 1] + 2.0 * kPi * (v0 * t + 0.5 * slope * t * t), 0.0, 1.0);

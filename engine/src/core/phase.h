@@ -46,6 +46,13 @@ private:
     double g_ = 0.0, a_ = 0.0;
     std::vector<double> x_, v_, cdf_;
     std::vector<uint32_t> guide_;  // guide_[j]: first CDF node above j / size (narrows the search)
+    // The node segment of x in O(1): x's bits shifted (its exponent and kXBits mantissa bits,
+    // 2^kXBits bins per octave, which suits nodes logarithmic in the forward peak) index the
+    // first node above the bin's lower edge; a short scan finishes.
+    static constexpr int kXBits = 5;
+    uint64_t xkey0_ = 0;              // the key of x_[1]
+    std::vector<uint32_t> xguide_;
+    size_t segment(double x) const;   // i in [1, n - 1] with x_[i - 1] <= x < x_[i] (as upper_bound)
 };
 
 }  // namespace photic
