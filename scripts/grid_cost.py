@@ -165,6 +165,7 @@ def main(argv=None) -> int:
         np.savez(fields[name], density=rho)
     times: dict = {}
     render_times: dict = {}  # the renderer's own time: without reading the scene and its .npz
+    segments: dict = {}  # path segments traced: more where the water scatters more
     for rep in range(args.repeat):
         for integ in args.integrators.split(","):
             # every other repeat in reverse order, so that no field always follows another
@@ -177,6 +178,7 @@ def main(argv=None) -> int:
                 res = render(sc)
                 times.setdefault((integ, name), []).append(time.perf_counter() - t0)
                 render_times.setdefault((integ, name), []).append(res.stats["time_s"])
+                segments[(integ, name)] = res.stats["segments"]  # the same in every repeat
         print(f"repeat {rep + 1}/{args.repeat} done", flush=True)
     setup = {"both": "64 x 48 camera at 16 spp + 9 radiometers at 1e5 samples",
              "image": "160 x 120 camera at 64 spp",
@@ -185,9 +187,10 @@ def main(argv=None) -> int:
     print(f"\n{args.n}^3 grid, {setup}" + ("" if args.what == "example" else f", {args.bands} band(s)") + ", "
           f"{args.threads or 'all'} thread(s); median of {args.repeat}")
     print("(x homog.: ratio of the medians; paired: median of each repeat's ratio of renders made"
-          " one after the other, which the shared machine's drifts disturb less)")
+          " one after the other, which the shared machine's drifts disturb less; segments: path"
+          " segments traced, x homog.; per segment: the render's paired ratio over that)")
     print(f"{'integrator':<10} {'water':<14} {'non-zero':>9} {'median s':>9} {'x homog.':>9}"
-          f" {'render s':>9} {'x homog.':>9} {'paired':>7}")
+          f" {'render s':>9} {'x homog.':>9} {'paired':>7} {'segments':>9} {'per seg.':>9}")
     rows = []
     for integ in args.integrators.split(","):
         ref = statistics.median(times[(integ, "homogeneous")])
@@ -197,12 +200,14 @@ def main(argv=None) -> int:
             tr = statistics.median(render_times[(integ, name)])
             paired = statistics.median(a / b for a, b in zip(render_times[(integ, name)],
                                                                render_times[(integ, "homogeneous")]))
+            seg = segments[(integ, name)] / segments[(integ, "homogeneous")]
             print(f"{integ:<10} {name:<14} {nz[name]:>8.2%} {t:>9.2f} {t / ref:>9.2f}"
-                  f" {tr:>9.2f} {tr / ref_r:>9.2f} {paired:>7.2f}")
+                  f" {tr:>9.2f} {tr / ref_r:>9.2f} {paired:>7.2f} {seg:>9.2f} {paired / seg:>9.2f}")
             rows.append({"integrator": integ, "water": name, "nonzero": nz[name], "median_s": t,
                          "ratio": t / ref, "times_s": times[(integ, name)],
                          "render_median_s": tr, "render_ratio": tr / ref_r,
                          "render_paired_ratio": paired,
+                         "segments": segments[(integ, name)], "segments_ratio": seg,
                          "render_times_s": render_times[(integ, name)]})
     if args.json:
         with open(args.json, "w") as f:
