@@ -295,6 +295,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             }
             if (scattered) {
                 settle(t_cur);
+                if (L == &grid_local) w.local_components(grho, &grid_local, nb);
                 if (++depth > max_depth) return out;
                 if (w.stratified()) travel(w, o, d, t_cur);
                 o = o + d * t_cur;

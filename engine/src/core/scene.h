@@ -77,25 +77,21 @@ struct Water {
     double grid_s0 = 0.0, grid_s1 = 0.0;
     bool varying() const { return layers.size() > 1 || grid; }
     // A grid's coefficients where its density is r: the base plus r times the unit (written
-    // into *scratch). Only the fields the integrators read at a point are filled.
+    // into *scratch). Only what a collision's decision reads, b_path (linear in r like every
+    // coefficient, so the base's and unit's sums serve); a scattering vertex then asks for
+    // the components' b_path with local_components.
     const WaterLayer& local_at_density(double r, WaterLayer* scratch, int nb) const {
         if (r == 0.0) return layers[0];
-        const WaterLayer& B = layers[0];
-        const WaterLayer& U = grid_unit;
-        const size_t nc = B.comp_b.size();
-        scratch->comp_b.resize(nc);
-        scratch->comp_b_path.resize(nc);
-        scratch->b = Spectrum();
-        scratch->b_path = Spectrum();
-        for (int k = 0; k < nb; ++k) scratch->a.v[k] = B.a.v[k] + r * U.a.v[k];
-        for (size_t c = 0; c < nc; ++c)
-            for (int k = 0; k < nb; ++k) {
-                scratch->comp_b[c].v[k] = B.comp_b[c].v[k] + r * U.comp_b[c].v[k];
-                scratch->comp_b_path[c].v[k] = B.comp_b_path[c].v[k] + r * U.comp_b_path[c].v[k];
-                scratch->b.v[k] += scratch->comp_b[c].v[k];
-                scratch->b_path.v[k] += scratch->comp_b_path[c].v[k];
-            }
+        for (int k = 0; k < nb; ++k) scratch->b_path.v[k] = layers[0].b_path.v[k] + r * grid_unit.b_path.v[k];
         return *scratch;
+    }
+    void local_components(double r, WaterLayer* scratch, int nb) const {
+        const WaterLayer& B = layers[0];
+        const size_t nc = B.comp_b_path.size();
+        scratch->comp_b_path.resize(nc);
+        for (size_t c = 0; c < nc; ++c)
+            for (int k = 0; k < nb; ++k)
+                scratch->comp_b_path[c].v[k] = B.comp_b_path[c].v[k] + r * grid_unit.comp_b_path[c].v[k];
     }
     // Grid, a segment of length len over which the density integrates to r: its absorption
     // optical depth added to *tau, and its attenuation exp(-c_path optical depth) into
