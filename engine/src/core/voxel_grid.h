@@ -49,20 +49,21 @@ struct VoxelGrid {
             nb[a] = (n[a] + B - 1) / B;
             icell[a] = 1.0 / cell[a];
         }
-        // One pass over the densities: each brick gets its block when its first non-zero
-        // voxel is met.
+        // Two passes over the densities: the first validates them and numbers the non-empty
+        // bricks in the order their first non-zero voxel is met, the second fills the bricks,
+        // allocated once (no reallocation: a dense 256^3 field is 64 MB).
         const size_t nbricks = size_t(nb[0]) * nb[1] * nb[2];
         constexpr int M = B - 1;
         brick_slot.assign(nbricks, -1);
-        bricks.clear();
+        std::vector<uint8_t> row_used(size_t(n[0]) * n[1], 0);
+        int32_t nslots = 0;
         rho_min = rho[0];
         rho_max = rho[0];
         int first[3] = {n[0], n[1], n[2]}, last[3] = {-1, -1, -1};
         const float* r = rho;
         for (int i = 0; i < n[0]; ++i)
-            for (int j = 0; j < n[1]; ++j) {
+            for (int j = 0; j < n[1]; ++j, r += n[2]) {
                 const size_t row = (size_t(i >> kShift) * nb[1] + (j >> kShift)) * nb[2];
-                const int local_ij = ((i & M) * B + (j & M)) * B;
                 // The row's smallest and largest value in a loop the compiler vectorises (NaN
                 // fails both comparisons, so it is counted apart); most rows of a sparse
                 // field are all zero and end there.
@@ -78,29 +79,32 @@ struct VoxelGrid {
                     throw std::invalid_argument("densities must be finite and >= 0");
                 rho_min = std::min(rho_min, lo_v);
                 rho_max = std::max(rho_max, hi_v);
-                if (!(hi_v > 0.f)) {
-                    r += n[2];
-                    continue;
-                }
+                if (!(hi_v > 0.f)) continue;
+                row_used[size_t(i) * n[1] + j] = 1;
                 int kfirst = -1, klast = -1;
-                for (int k = 0; k < n[2]; ++k, ++r) {
-                    const float v = *r;
-                    if (!(v > 0.f)) continue;
-                    const size_t b = row + (k >> kShift);
-                    if (brick_slot[b] < 0) {
-                        brick_slot[b] = int32_t(bricks.size() / (B * B * B));
-                        bricks.resize(bricks.size() + B * B * B, 0.f);
-                    }
-                    bricks[size_t(brick_slot[b]) * B * B * B + local_ij + (k & M)] = v;
+                for (int k = 0; k < n[2]; ++k) {
+                    if (!(r[k] > 0.f)) continue;
+                    int32_t& slot = brick_slot[row + (k >> kShift)];
+                    if (slot < 0) slot = nslots++;
                     if (kfirst < 0) kfirst = k;
                     klast = k;
                 }
-                if (kfirst < 0) continue;
                 first[0] = std::min(first[0], i); last[0] = std::max(last[0], i);
                 first[1] = std::min(first[1], j); last[1] = std::max(last[1], j);
                 first[2] = std::min(first[2], kfirst); last[2] = std::max(last[2], klast);
             }
-        bricks.shrink_to_fit();
+        bricks.assign(size_t(nslots) * B * B * B, 0.f);
+        bricks.shrink_to_fit();  // (a grid built before may have left capacity)
+        r = rho;
+        for (int i = 0; i < n[0]; ++i)
+            for (int j = 0; j < n[1]; ++j, r += n[2]) {
+                if (!row_used[size_t(i) * n[1] + j]) continue;
+                const size_t row = (size_t(i >> kShift) * nb[1] + (j >> kShift)) * nb[2];
+                const int local_ij = ((i & M) * B + (j & M)) * B;
+                for (int k = 0; k < n[2]; ++k)
+                    if (r[k] > 0.f)
+                        bricks[size_t(brick_slot[row + (k >> kShift)]) * B * B * B + local_ij + (k & M)] = r[k];
+            }
         occupied = last[0] >= 0;
         for (int a = 0; a < 3 && occupied; ++a) {
             // The faces of the first and last non-empty voxels; inside the grid widened by a
