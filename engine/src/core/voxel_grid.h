@@ -432,7 +432,7 @@ void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, dou
         const int si = si_, sj = sj_, sk = sk_;
         double tx = tx_, ty = ty_, tz = tz_;
         const double dx = dx_, dy = dy_, dz = dz_;
-        const double idz = 1.0 / dz;  // (0 for a ray with d.z = 0: no runs)
+        const double idz = 1.0 / dz;  // (a ray with d.z = 0 never steps along z)
         const int ei = si > 0 ? 0 : M, ej = sj > 0 ? 0 : M, ek = sk > 0 ? 0 : M;  // entry faces
         const std::ptrdiff_t n0 = std::ptrdiff_t(g.nb[1]) * g.nb[2], n1 = g.nb[2];
         for (;;) {
