@@ -26,6 +26,7 @@ to a 256^3 grid, against the same scene with the clear water alone.
 from __future__ import annotations
 
 import argparse
+import functools
 import importlib.util
 import json
 import statistics
@@ -70,8 +71,10 @@ def dense(n: int, seed: int = 6) -> np.ndarray:
     return np.random.default_rng(seed).random((n, n, n), dtype=np.float32)
 
 
+@functools.lru_cache(maxsize=1)
 def _examples():
-    """example_blends/make_examples.py as a module (it imports bpy only to write .blend files)."""
+    """example_blends/make_examples.py as a module (it imports bpy only to write .blend files),
+    loaded once."""
     path = Path(__file__).resolve().parents[1] / "example_blends" / "make_examples.py"
     spec = importlib.util.spec_from_file_location("make_examples", path)
     mod = importlib.util.module_from_spec(spec)

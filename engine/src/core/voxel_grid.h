@@ -501,34 +501,31 @@ void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, dou
             for (;;) {
                 const double rho = v[off];
                 if (tz <= tx && tz <= ty) {
-                    {
-                        // A run along z in one go: this voxel and the next c, whose exit faces
-                        // all come before the next x and y faces and the walk's end, within
-                        // the brick (steep rays in thin voxels cross many: the beams' walks
-                        // towards the sun). In tracking only if the run's optical depth stays
-                        // below xi; else voxel by voxel to the collision.
-                        const int left = sk > 0 ? M - (k & M) : (k & M);
-                        const int c = std::min(left, int((std::min(std::min(tx, ty), tv) - tz) * idz));
-                        if (c > 0) {
-                            double run = 0.0;
-                            for (int m = 1; m <= c; ++m) run += v[off + m * sk];
-                            const double r = rho * (tz - t) + run * dz, te_run = tz + c * dz;
-                            const double gain = kTrack ? s0 * (te_run - t) + s1 * r : 0.0;
-                            if (!kTrack || gain < xi) {
-                                if (kTrack) xi -= gain;
-                                sum += r;
-                                t = te_run;
-                                k += (c + 1) * sk; tz = t + dz; off += (c + 1) * sk;
-                                if (c == left) {
-                                    if (unsigned(k) >= unsigned(g.n[2])) { t1_ = t; stop = true; }
-                                    break;
-                                }
-                                continue;
-                            }
+                    // A run along z in one go: this voxel and the next c, whose exit faces all
+                    // come before the next x and y faces and the walk's end, within the brick
+                    // (steep rays in thin voxels cross many: the beams' walks towards the
+                    // sun). In tracking only if the run's optical depth stays below xi; else
+                    // voxel by voxel to the collision.
+                    const int left = sk > 0 ? M - (k & M) : (k & M);
+                    const int c = std::min(left, int((std::min(std::min(tx, ty), tv) - tz) * idz));
+                    bool run_taken = false;
+                    if (c > 0) {
+                        double run = 0.0;
+                        for (int m = 1; m <= c; ++m) run += v[off + m * sk];
+                        const double r = rho * (tz - t) + run * dz, te_run = tz + c * dz;
+                        const double gain = kTrack ? s0 * (te_run - t) + s1 * r : 0.0;
+                        if (!kTrack || gain < xi) {
+                            if (kTrack) xi -= gain;
+                            sum += r;
+                            t = te_run;
+                            k += (c + 1) * sk; tz = t + dz; off += (c + 1) * sk;
+                            run_taken = true;
                         }
                     }
-                    if (voxel(rho, tz)) { stop = true; break; }
-                    k += sk; tz += dz; off += sk;
+                    if (!run_taken) {
+                        if (voxel(rho, tz)) { stop = true; break; }
+                        k += sk; tz += dz; off += sk;
+                    }
                     if ((k & M) == ek) {
                         if (unsigned(k) >= unsigned(g.n[2])) { t1_ = t; stop = true; }
                         break;
