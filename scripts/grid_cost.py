@@ -14,14 +14,17 @@ the same run (the machine is shared: ratios are what to compare; every other rep
 the fields in reverse order). Times include the scene's
 setup (reading the .npz, validation, building the bricks); the "render" columns are the
 renderer's own time (building the grid and rendering, not reading and validating the scene).
-``--bands N`` renders N bands with the same IOPs in each (one geometric path serves them all,
+``--mixed`` also renders each grid's water mixed evenly (homogeneous water of the grid's mean
+IOPs, base + mean(rho) x unit, with the grid's components) and compares the grid with it: the
+homogeneous render that differs from the grid's in the grid alone (the plume's extra
+scattering and phase functions are in both). ``--bands N`` renders N bands with the same IOPs in each (one geometric path serves them all,
 as in spectral scenes). ``--what example`` renders the sediment-plume example's scene instead
 (``example_blends/make_examples.py``: shore, 10 bands, Case-2 IOP models, a camera above the sea
 at 160 x 90 and 16 spp, 5 radiometers above the water at 1e5 samples) with its plume resampled
 to a 256^3 grid, against the same scene with the clear water alone.
 
     .venv/bin/python scripts/grid_cost.py [--n 256] [--repeat 3] [--what both|image|example] [--bands 1]
-                                          [--threads 0] [--json out.json]
+                                          [--threads 0] [--mixed] [--json out.json]
 """
 from __future__ import annotations
 
@@ -37,9 +40,10 @@ from pathlib import Path
 import numpy as np
 
 from photic.render import render
-from photic.scene import Scene
+from photic.scene import IOPGrid, IOPs, ScatteringComponent, Scene
 
 HG = {"type": "henyey_greenstein", "g": 0.9}
+MIXED = ", mixed"  # the name of a grid's water mixed evenly (--mixed)
 WATER = {"type": "pure_water"}
 
 
@@ -129,6 +133,21 @@ def scene(integrator: str, density_file: Path | None, what: str = "both", bands:
     return Scene.from_dict(d, base_dir=density_file.parent if density_file else None)
 
 
+def homogenised(sc: Scene) -> Scene:
+    """The scene with its gridded water mixed evenly: homogeneous IOPs base + mean(rho) x unit
+    everywhere, with the grid's components (phase functions). The same IOP model and, on
+    average, the same scattering as the grid: the homogeneous render that differs from the
+    grid's in the grid alone."""
+    for w in sc.water:
+        g = w.iops
+        if isinstance(g, IOPGrid):
+            m = float(np.mean(g.density, dtype=np.float64))
+            w.iops = IOPs(g.iops.absorption + m * g.unit.absorption,
+                          [ScatteringComponent(cb.b + m * cu.b, cb.phase)
+                           for cb, cu in zip(g.iops.scattering, g.unit.scattering)])
+    return sc
+
+
 def _per_band(d, bands: int):
     """The scene with every one-band list of numbers repeated for each band."""
     if isinstance(d, dict):
@@ -152,6 +171,9 @@ def main(argv=None) -> int:
     ap.add_argument("--bands", type=int, default=1,
                     help="spectral bands (the same IOPs in each): one path serves them all")
     ap.add_argument("--threads", type=int, default=0, help="render threads (0: all cores)")
+    ap.add_argument("--mixed", action="store_true",
+                    help="also render each grid's water mixed evenly (homogeneous water of the "
+                         "grid's mean IOPs, the same components) and compare the grid with it")
     ap.add_argument("--json", help="write the times here")
     args = ap.parse_args(argv)
     if args.what == "example":  # the example's own bands
@@ -166,6 +188,9 @@ def main(argv=None) -> int:
         nz[name] = float(np.count_nonzero(rho)) / rho.size
         fields[name] = tmp / (name.replace(" ", "_") + ".npz")
         np.savez(fields[name], density=rho)
+    if args.mixed:  # each grid's water mixed evenly: homogeneous, the grid's mean IOPs
+        for name in list(fields)[1:]:
+            fields[name + MIXED], nz[name + MIXED] = fields[name], 0.0
     times: dict = {}
     render_times: dict = {}  # the renderer's own time: without reading the scene and its .npz
     segments: dict = {}  # path segments traced: more where the water scatters more
@@ -176,6 +201,8 @@ def main(argv=None) -> int:
             for name, rho in order:
                 t0 = time.perf_counter()
                 sc = scene(integ, rho, args.what, args.bands)
+                if name.endswith(MIXED):
+                    homogenised(sc)
                 if args.threads:
                     sc.settings.threads = args.threads
                 res = render(sc)
@@ -192,7 +219,7 @@ def main(argv=None) -> int:
     print("(x homog.: ratio of the medians; paired: median of each repeat's ratio of renders made"
           " one after the other, which the shared machine's drifts disturb less; segments: path"
           " segments traced, x homog.; per segment: the render's paired ratio over that)")
-    print(f"{'integrator':<10} {'water':<14} {'non-zero':>9} {'median s':>9} {'x homog.':>9}"
+    print(f"{'integrator':<10} {'water':<21} {'non-zero':>9} {'median s':>9} {'x homog.':>9}"
           f" {'render s':>9} {'x homog.':>9} {'paired':>7} {'segments':>9} {'per seg.':>9}")
     rows = []
     for integ in args.integrators.split(","):
@@ -204,7 +231,7 @@ def main(argv=None) -> int:
             paired = statistics.median(a / b for a, b in zip(render_times[(integ, name)],
                                                                render_times[(integ, "homogeneous")]))
             seg = segments[(integ, name)] / segments[(integ, "homogeneous")]
-            print(f"{integ:<10} {name:<14} {nz[name]:>8.2%} {t:>9.2f} {t / ref:>9.2f}"
+            print(f"{integ:<10} {name:<21} {nz[name]:>8.2%} {t:>9.2f} {t / ref:>9.2f}"
                   f" {tr:>9.2f} {tr / ref_r:>9.2f} {paired:>7.2f} {seg:>9.2f} {paired / seg:>9.2f}")
             rows.append({"integrator": integ, "water": name, "nonzero": nz[name], "median_s": t,
                          "ratio": t / ref, "times_s": times[(integ, name)],
@@ -212,11 +239,24 @@ def main(argv=None) -> int:
                          "render_paired_ratio": paired,
                          "segments": segments[(integ, name)], "segments_ratio": seg,
                          "render_times_s": render_times[(integ, name)]})
+    mixed = []
+    if args.mixed:
+        print("\nagainst the same water mixed evenly (homogeneous, the grid's mean IOPs: the same IOP"
+              " model and components, on average the same scattering)")
+        print(f"{'integrator':<10} {'water':<21} {'render x':>9} {'paired':>7} {'segments':>9} {'per seg.':>9}")
+        for integ in args.integrators.split(","):
+            for name in [n for n in fields if n + MIXED in fields]:
+                grid, even = render_times[(integ, name)], render_times[(integ, name + MIXED)]
+                ratio = statistics.median(grid) / statistics.median(even)
+                paired = statistics.median(a / b for a, b in zip(grid, even))
+                seg = segments[(integ, name)] / segments[(integ, name + MIXED)]
+                print(f"{integ:<10} {name:<21} {ratio:>9.2f} {paired:>7.2f} {seg:>9.2f} {paired / seg:>9.2f}")
+                mixed.append({"integrator": integ, "water": name, "render_ratio": ratio,
+                              "render_paired_ratio": paired, "segments_ratio": seg})
     if args.json:
         with open(args.json, "w") as f:
             json.dump({"n": args.n, "repeat": args.repeat, "what": args.what, "bands": args.bands,
-                       "threads": args.threads,
-                   "rows": rows}, f, indent=1)
+                       "threads": args.threads, "rows": rows, "against_mixed": mixed}, f, indent=1)
     return 0
 
 

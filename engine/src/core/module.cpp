@@ -26,6 +26,29 @@ Spectrum to_spectrum(const DArray& a, int nb, const char* what) {
 
 Vec3 to_vec(const std::array<double, 3>& a) { return Vec3(a[0], a[1], a[2]); }
 
+// A pass's [sum, sum of squares] of the given shape, zeroed: the caller's arrays `out` when
+// given (reused from pass to pass: new large arrays cost a page fault per 4 kB page, on
+// some allocator states every pass), else new ones.
+std::pair<DArray, DArray> pass_buffers(const py::object& out, const std::vector<py::ssize_t>& shape) {
+    std::pair<DArray, DArray> r;
+    if (out.is_none()) {
+        r = {DArray(shape), DArray(shape)};
+    } else {
+        auto t = out.cast<py::tuple>();
+        if (t.size() != 2) throw std::invalid_argument("out: expected (sum, sum of squares)");
+        for (int i = 0; i < 2; ++i) {
+            auto a = t[i].cast<py::array>();
+            if (!py::isinstance<py::array_t<double>>(a) || !(a.flags() & py::array::c_style) || !a.writeable() ||
+                std::vector<py::ssize_t>(a.shape(), a.shape() + a.ndim()) != shape)
+                throw std::invalid_argument("out: expected writable C-contiguous float64 arrays of the pass's shape");
+            (i ? r.second : r.first) = a.cast<DArray>();
+        }
+    }
+    std::fill(r.first.mutable_data(), r.first.mutable_data() + r.first.size(), 0.0);
+    std::fill(r.second.mutable_data(), r.second.mutable_data() + r.second.size(), 0.0);
+    return r;
+}
+
 py::dict counters_dict(const Counters& c) {
     py::dict d;
     d["segments"] = c.segments;
@@ -364,30 +387,30 @@ PYBIND11_MODULE(_core, m) {
         .def("cancel", [](Scene& s) { s.cancel_flag.store(true); })
         .def("reset_cancel", [](Scene& s) { s.cancel_flag.store(false); })
         .def_property_readonly("cancelled", [](const Scene& s) { return s.cancel_flag.load(); })
-        .def("render_camera", [](const Scene& s, int cam, uint64_t start, uint64_t count, int threads) {
+        .def("render_camera", [](const Scene& s, int cam, uint64_t start, uint64_t count, int threads, py::object out) {
             const Camera& c = s.cameras.at(cam);
-            DArray sum({c.height, c.width, kNumComponents, s.nbands}), sq({c.height, c.width, kNumComponents, s.nbands});
-            std::fill(sum.mutable_data(), sum.mutable_data() + sum.size(), 0.0);
-            std::fill(sq.mutable_data(), sq.mutable_data() + sq.size(), 0.0);
+            auto [sum, sq] = pass_buffers(out, {c.height, c.width, kNumComponents, s.nbands});
             Counters cnt;
             {
                 py::gil_scoped_release nogil;
                 s.render_camera(cam, start, count, threads, sum.mutable_data(), sq.mutable_data(), &cnt);
             }
             return py::make_tuple(sum, sq, counters_dict(cnt));
-        }, py::arg("camera"), py::arg("start"), py::arg("count"), py::arg("threads") = 0)
-        .def("render_radiometer", [](const Scene& s, int rad, uint64_t start, uint64_t count, int threads) {
+        }, py::arg("camera"), py::arg("start"), py::arg("count"), py::arg("threads") = 0, py::arg("out") = py::none(),
+           "One pass of samples [start, start + count) per pixel: (sum, sum of squares, counters); "
+           "out = (sum, sum of squares) arrays to fill instead of new ones.")
+        .def("render_radiometer", [](const Scene& s, int rad, uint64_t start, uint64_t count, int threads, py::object out) {
             int nbins = s.radiometers.at(rad).bins();
-            DArray sum({nbins, kNumComponents, s.nbands}), sq({nbins, kNumComponents, s.nbands});
-            std::fill(sum.mutable_data(), sum.mutable_data() + sum.size(), 0.0);
-            std::fill(sq.mutable_data(), sq.mutable_data() + sq.size(), 0.0);
+            auto [sum, sq] = pass_buffers(out, {nbins, kNumComponents, s.nbands});
             Counters cnt;
             {
                 py::gil_scoped_release nogil;
                 s.render_radiometer(rad, start, count, threads, sum.mutable_data(), sq.mutable_data(), &cnt);
             }
             return py::make_tuple(sum, sq, counters_dict(cnt));
-        }, py::arg("radiometer"), py::arg("start"), py::arg("count"), py::arg("threads") = 0)
+        }, py::arg("radiometer"), py::arg("start"), py::arg("count"), py::arg("threads") = 0, py::arg("out") = py::none(),
+           "One pass of samples [start, start + count): (sum, sum of squares, counters); out as for "
+           "render_camera.")
         .def("trace_rays", [](const Scene& s, FArray o, FArray d, int threads) {
             if (o.ndim() != 2 || o.shape(1) != 3 || d.ndim() != 2 || d.shape(1) != 3 || o.shape(0) != d.shape(0))
                 throw std::invalid_argument("origins and directions must be matching (N, 3) arrays");

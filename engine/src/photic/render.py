@@ -336,6 +336,12 @@ class Renderer:
         media = [None] * len(radiometers)
         beam_stats = {"passes": 0, "prisms": 0, "build_s": 0.0}
         t0 = self.t_start = time.perf_counter()
+        buffers: dict = {}  # per shape, the passes' output arrays (reused: fresh ones fault per page)
+
+        def out(shape):
+            if shape not in buffers:
+                buffers[shape] = (np.empty(shape), np.empty(shape))
+            return buffers[shape]
 
         def add_counts(c):
             for k in counters:
@@ -387,7 +393,8 @@ class Renderer:
                     nbins = core.radiometer_bins(ri)
                     rad_sums.append([np.zeros((nbins, nc, nb)), np.zeros((nbins, nc, nb))])
             for ci, cam in enumerate(scene.cameras):
-                ok = run_passes(core, gi, g, (0, ci), cam_passes, lambda st, n, ci=ci: core.render_camera(ci, st, n, self.threads),
+                ok = run_passes(core, gi, g, (0, ci), cam_passes, lambda st, n, ci=ci, cam=cam: core.render_camera(
+                                    ci, st, n, self.threads, out((cam.resolution[1], cam.resolution[0], nc, g.stop - g.start))),
                                 cam_sums[cam.name], cam_done, cam.name,
                                 cam.resolution[0] * cam.resolution[1], f"camera {cam.name}", self.samples)
                 if not ok:
@@ -404,7 +411,8 @@ class Renderer:
                 if batch_means and len(rad_batch) <= ri:
                     shape = rad_sums[ri][0].shape
                     rad_batch.append([np.zeros(shape), np.zeros(shape), np.zeros(nb)])
-                ok = run_passes(core, gi, g, (1, ri), rad_passes, lambda st, n, ri=ri: core.render_radiometer(ri, st, n, self.threads),
+                ok = run_passes(core, gi, g, (1, ri), rad_passes, lambda st, n, ri=ri: core.render_radiometer(
+                                    ri, st, n, self.threads, out(rad_sums[ri][0].shape[:-1] + (g.stop - g.start,))),
                                 rad_sums[ri], rad_done, ri, 1, f"radiometer {r.name}", self.radiometer_samples,
                                 rad_batch[ri] if batch_means else None)
                 if not ok:
