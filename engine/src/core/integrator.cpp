@@ -227,7 +227,14 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 const bool end = t_end < kInf;
                 const bool beam = t_beam >= 0.0 && !beam_read;
                 if (beam && (!end || t_beam <= t_end)) r_beam = gcursor->value(t_beam);
-                if (end) r_end = gcursor->value(t_end);
+                if (end && t_end < gcursor->position()) {
+                    // Path tracing walked on to a tentative collision beyond the surface at
+                    // t_end: the part behind it walked again, backwards from the surface.
+                    VoxelGrid::Cursor back(*w.grid, o + d * t_end, d);
+                    r_end = gcursor->integral() - back.value(gcursor->position() - t_end);
+                } else if (end) {
+                    r_end = gcursor->value(t_end);
+                }
                 if (beam && end && t_beam > t_end) r_beam = gcursor->value(t_beam);
                 if (t_beam >= 0.0) {
                     double att[kMaxBands];
@@ -237,10 +244,13 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 }
                 if (end) w.grid_absorption(t_end, r_end, nb, &tau_a);
             };
-            if (w.majorant > 0.0 && !w.grid) dt = flight();
-            if (!hybrid && w.majorant > 0.0 && !w.grid) {
-                // Trace only to the first tentative collision: short rays are cheaper, and most
-                // flights in water end in the volume.
+            // Path tracing traces only to the first tentative collision: short rays are cheaper,
+            // and most flights in water end in the volume (a grid's walk goes on to it first,
+            // not knowing the surface yet; settle() corrects a walk that passed the surface).
+            const bool short_ray = !hybrid && w.majorant > 0.0;
+            t_hit = kInf;
+            if (w.majorant > 0.0 && (!w.grid || short_ray)) dt = flight();
+            if (short_ray) {
                 h = intersect(o, d, dt);
                 clipped = !h.valid;  // nothing before dt; what lies beyond is unknown
             } else {
@@ -258,7 +268,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     for (int kb = 0; kb < nb; ++kb) out.beam_volume.v[kb] += bv_weight * beta.v[kb] * absorbed(w, kb) * I.v[kb];
             }
             bv_weight = 1.0;
-            if (w.majorant > 0.0 && w.grid) dt = flight();  // after t_hit and t_beam are known
+            if (w.majorant > 0.0 && w.grid && !short_ray) dt = flight();  // after t_hit and t_beam are known
 
             while (t_cur + dt < t_hit) {
                 t_cur += dt;
