@@ -13,7 +13,7 @@ from pathlib import Path
 
 import bpy
 
-from . import final_render
+from . import final_render, natural_waters
 
 
 def ensure_registered() -> None:
@@ -88,6 +88,7 @@ def render_blend(path, frame: int | None = None, out_dir=None, samples: int | No
     settings.exr_codec = "ZIP"
     scene.render.use_file_extension = True
     scene.render.filepath = str(out_dir / f"{path.stem}_####")
+    natural_waters.read_volumes(scene)  # Volume grids: read here, on the main thread
     final_render.LAST_RENDER.clear()
     final_render.PROGRESS_HOOK = progress
     try:

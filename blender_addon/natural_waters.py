@@ -6,8 +6,8 @@
   maximum driving the Case-1 model (``photic.profiles``; the chlorophyll-specific absorption
   table comes from the user, none is bundled) or a CSV table of coefficients against depth;
 - ``GRID``: the object's IOPs plus a density field times unit IOPs over a box (the engine's
-  ``IOPGrid``), the density from a ``.npz`` file or, where the ``openvdb`` module exists, from
-  a Volume object's ``.vdb``.
+  ``IOPGrid``), the density from a ``.npz`` file or from a Volume object's 'density' grid
+  (read through geometry nodes, ``volume_grid``).
 
 Depths count down from the water level: the mean sea level of a water surface, the top of a
 water body's mesh. Every problem is an ``ExportError`` naming the object and the property.
@@ -35,6 +35,7 @@ P_TABLE_FILE = "Photic > Layer Table File (photic.profile_table_file)"
 P_GRID_FILE = "Photic > Density File (photic.grid_file)"
 P_GRID_SOURCE = "Photic > Density (photic.grid_source)"
 P_GRID_BOX = "Photic > Grid Box (photic.grid_box)"
+WATER_ROLES = ("WATER_BODY", "WATER_SURFACE")
 P_UNIT_MODEL = "Photic > Unit IOP Model (photic.unit_model)"
 
 
@@ -342,40 +343,94 @@ def grid_box(ex, owner: str, box, bounds) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
+def _volume_key(box, frame: int) -> tuple:
+    """What a cached read of a Volume's grid depends on, as far as can be seen without reading
+    it: the object, its data's file (path, size, time) and frame, its transform and its
+    evaluated bounds and grid transform."""
+    volume = box.data
+    path = bpy.path.abspath(volume.filepath, library=volume.library) if volume.filepath else ""
+    try:
+        st = os.stat(path) if path else None
+    except OSError:
+        st = None
+    file = (path, st.st_size, st.st_mtime_ns) if st else (path,)
+    return (box.name, volume.name, frame, file, tuple(map(tuple, box.matrix_world)),
+            tuple(box.modifiers.keys()))
+
+
+_VOLUME_CACHE: dict = {}  # key -> (density, lo, hi) or ExportError: the last reads, main thread
+
+
+def read_volumes(scene) -> list:
+    """Reads, on Blender's main thread, the 'density' grid of every Volume that a water object
+    of ``scene`` (original) takes its grid from, into the cache that ``volume_density`` answers
+    from. Before the export walks the depsgraph: the read adds and removes a temporary object
+    and re-evaluates. Elsewhere (an F12 render's thread) it does nothing: the last read stands.
+    Returns what was read: per Volume (water object, Volume, voxel counts or the ExportError)."""
+    from . import volume_grid
+    done = []
+    if not volume_grid.on_main_thread():
+        return done
+    for obj in scene.objects:
+        p = getattr(obj, "photic", None)
+        if p is None or p.role not in WATER_ROLES or p.iop_variation != "GRID" or p.grid_source != "VOLUME":
+            continue
+        box = p.grid_box
+        if box is None or box.type != "VOLUME":
+            continue  # volume_density names the problem
+        while len(_VOLUME_CACHE) >= 4:  # fields can be large: the latest few
+            _VOLUME_CACHE.pop(next(iter(_VOLUME_CACHE)))
+        try:
+            raw, index_to_world, i0 = volume_grid.read_volume_grid(box, "density")
+            got = _volume_field(_obj(obj.name), box, raw, index_to_world, i0)
+        except volume_grid.VolumeGridError as exc:
+            got = ExportError(_obj(obj.name), P_GRID_BOX, str(exc))
+        # (the key after the read: it evaluated the depsgraph, which updates matrix_world)
+        key = _volume_key(box, scene.frame_current)
+        _VOLUME_CACHE[key] = got
+        got = _VOLUME_CACHE[key]
+        done.append((obj.name, box.name, got if isinstance(got, ExportError) else got[0].shape))
+    return done
+
+
+def _volume_field(owner: str, box, raw, index_to_world, i0):
+    """(density, lo, hi) of a grid read from a Volume, or the ExportError saying why not."""
+    r = index_to_world[:3, :3]
+    if np.abs(r - np.diag(np.diag(r))).max() > 1e-6 * np.abs(r).max():
+        return ExportError(owner, P_GRID_BOX, f"Volume '{box.name}': its grid's voxels are "
+                                              f"rotated against the world axes (the grid's box "
+                                              f"is aligned with them: clear the rotation)")
+    # Voxel centres sit at integer index coordinates: the voxels span +-0.5 around them.
+    ends = np.array([i0 - 0.5, i0 + np.array(raw.shape) - 0.5])
+    world = np.c_[ends, np.ones(2)] @ index_to_world.T
+    lo, hi = world[:, :3].min(axis=0), world[:, :3].max(axis=0)
+    # A negative scale runs the voxels backwards along its axis.
+    flip = tuple(a for a in range(3) if r[a, a] < 0)
+    try:
+        density = check_density(owner, P_GRID_BOX, np.flip(raw, axis=flip) if flip else raw,
+                                f"Volume '{box.name}'")
+    except ExportError as exc:
+        return exc
+    return density, lo, hi
+
+
 def volume_density(ex, owner: str, box):
-    """Density and world bounds from a Volume object's .vdb 'density' grid (openvdb)."""
+    """Density and world bounds of a Volume object's evaluated 'density' grid, as
+    ``read_volumes`` read it before the export (geometry nodes, main thread); an F12 render
+    (its own thread) uses the last read of the same Volume and frame."""
     if box is None or box.type != "VOLUME":
         name = f"Object '{box.name}' is a {box.type.lower()}" if box is not None else "it is empty"
         raise ExportError(owner, P_GRID_BOX, f"'Volume Object' reads a Volume object's grid, "
                                              f"but {name}: choose a Volume object")
-    try:
-        import openvdb as vdb
-    except ImportError:
-        try:
-            import pyopenvdb as vdb
-        except ImportError:
-            raise ExportError(owner, P_GRID_SOURCE, f"is 'Volume Object', but this Blender's "
-                                                    f"Python has no openvdb module to read the "
-                                                    f"voxels of Volume '{box.name}' (Blender's "
-                                                    f"Python API does not give voxel values): "
-                                                    f"save the density as a .npz (array "
-                                                    f"'density') and choose 'Density File "
-                                                    f"(.npz)' with '{box.name}' as the Grid "
-                                                    f"Box") from None
-    volume = box.data
-    path = _abspath(bpy.path.abspath(volume.filepath, library=volume.library))
-    try:
-        grid = vdb.read(str(path), "density")
-        (i0, j0, k0), (i1, j1, k1) = grid.evalActiveVoxelBoundingBox()
-        raw = np.zeros((i1 - i0 + 1, j1 - j0 + 1, k1 - k0 + 1), np.float32)
-        grid.copyToArray(raw, ijk=(i0, j0, k0))
-        # Voxel centres sit at integer index coordinates: the voxels span +-0.5 around them.
-        c0 = np.array(grid.transform.indexToWorld((i0 - 0.5, j0 - 0.5, k0 - 0.5)), float)
-        c1 = np.array(grid.transform.indexToWorld((i1 + 0.5, j1 + 0.5, k1 + 0.5)), float)
-    except Exception as exc:  # openvdb raises its own types
-        raise ExportError(owner, P_GRID_BOX, f"cannot read the 'density' grid of Volume "
-                                             f"'{box.name}' from {path}: {exc}") from None
-    density = check_density(owner, P_GRID_BOX, raw, f"Volume '{box.name}' ({path})")
-    corners = [[x, y, z] for x in (c0[0], c1[0]) for y in (c0[1], c1[1]) for z in (c0[2], c1[2])]
-    lo, hi = _world_box(owner, box, corners)
-    return density, lo, hi
+    got = _VOLUME_CACHE.get(_volume_key(box, ex.bscene.frame_current))
+    if isinstance(got, ExportError):
+        raise ExportError(owner, got.prop, got.message)
+    if got is not None:
+        return got
+    raise ExportError(owner, P_GRID_SOURCE, f"is 'Volume Object': Volume '{box.name}' at frame "
+                                            f"{ex.bscene.frame_current} has not been read. Its "
+                                            f"voxels are read through geometry nodes on Blender's "
+                                            f"main thread, not in an F12 render's: press 'Read "
+                                            f"Volume Grids' in the water's Photic panel (again "
+                                            f"after changing the Volume), or render from the "
+                                            f"command line")

@@ -5,6 +5,7 @@ import bpy
 from bpy.props import StringProperty
 
 from .engine_loader import engine_error, load_engine
+from . import natural_waters
 from .export import ExportCancelled, ExportError, export_scene
 
 
@@ -23,6 +24,7 @@ class PHOTIC_OT_export_scene(bpy.types.Operator):
         if photic is None:
             self.report({"ERROR"}, engine_error())
             return {"CANCELLED"}
+        natural_waters.read_volumes(context.scene)
         depsgraph = context.evaluated_depsgraph_get()
         try:
             scene, info = export_scene(depsgraph, photic)
@@ -39,6 +41,30 @@ class PHOTIC_OT_export_scene(bpy.types.Operator):
     def invoke(self, context, event):
         context.window_manager.fileselect_add(self)
         return {"RUNNING_MODAL"}
+
+
+class PHOTIC_OT_read_volume_grids(bpy.types.Operator):
+    """Read the 'density' grids of the Volume objects that water objects take their IOP grid
+    from (at the current frame), for renders started with F12: Blender's main thread reads a
+    Volume's voxels, not a render's"""
+
+    bl_idname = "photic.read_volume_grids"
+    bl_label = "Read Volume Grids"
+    bl_options = {"REGISTER"}
+
+    def execute(self, context):
+        done = natural_waters.read_volumes(context.scene)
+        errors = [str(got) for _, _, got in done if isinstance(got, ExportError)]
+        for e in errors:
+            self.report({"ERROR"}, e)
+        if errors:
+            return {"CANCELLED"}
+        if not done:
+            self.report({"WARNING"}, "Photic: no water object takes its IOP grid from a Volume")
+            return {"CANCELLED"}
+        self.report({"INFO"}, "Photic: read " + ", ".join(
+            f"Volume '{vol}' ({' x '.join(map(str, shape))} voxels) for '{water}'" for water, vol, shape in done))
+        return {"FINISHED"}
 
 
 class PHOTIC_OT_import_scene(bpy.types.Operator):
@@ -78,7 +104,7 @@ def menu_export(self, context):
     self.layout.operator(PHOTIC_OT_export_scene.bl_idname, text="Photic Scene (.json)")
 
 
-classes = (PHOTIC_OT_export_scene, PHOTIC_OT_import_scene)
+classes = (PHOTIC_OT_export_scene, PHOTIC_OT_read_volume_grids, PHOTIC_OT_import_scene)
 
 
 def register():

@@ -247,9 +247,11 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
         name="Density", default="NPZ",
         items=[("NPZ", "Density File (.npz)", "A numpy .npz holding a float array 'density' "
                                               "(nx, ny, nz), x first, over the grid box"),
-               ("VOLUME", "Volume Object (OpenVDB)", "The 'density' grid of the Grid Box's "
-                                                     "Volume object, read from its .vdb file "
-                                                     "(needs the openvdb Python module)")],
+               ("VOLUME", "Volume Object", "The 'density' grid of the Grid Box's Volume "
+                                           "object (a .vdb or its geometry nodes, at the "
+                                           "current frame) over its voxels' box; read through "
+                                           "geometry nodes before command-line renders, and by "
+                                           "'Read Volume Grids' for F12 renders")],
         description="Where the density field comes from")
     grid_file: StringProperty(
         options=_BLEND_RELATIVE, name="Density File", subtype="FILE_PATH",

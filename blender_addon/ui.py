@@ -226,6 +226,8 @@ class PHOTIC_PT_iop_variation(PhoticPanel, bpy.types.Panel):
             if p.grid_source == "NPZ":
                 layout.prop(p, "grid_file")
             layout.prop(p, "grid_box")
+            if p.grid_source == "VOLUME":
+                layout.operator("photic.read_volume_grids", icon="FILE_REFRESH")
             layout.prop(p, "unit_source")
             if p.unit_source == "MODEL":
                 layout.prop(p, "unit_model")

@@ -268,7 +268,7 @@ def _flat_box(tmp_path):
     grid_sea(tmp_path).photic.grid_box.scale.z = 0.0
 
 
-def _volume_without_openvdb(tmp_path):
+def _volume_not_read(tmp_path):
     sea = grid_sea(tmp_path)
     vol = link(bpy.data.objects.new("Plume", bpy.data.volumes.new("Plume")))
     sea.photic.grid_source, sea.photic.grid_box = "VOLUME", vol
@@ -343,7 +343,8 @@ BAD = [
     (_rotated_box, ["Grid Box (photic.grid_box)", "Object 'Box' is rotated"]),
     (_ocean_without_box, ["Grid Box", "is empty", "water surface"]),
     (_flat_box, ["Grid Box", "no extent along z"]),
-    (_volume_without_openvdb, ["Density (photic.grid_source)", "openvdb", "Volume 'Plume'", ".npz"]),
+    (_volume_not_read, ["Density (photic.grid_source)", "Volume 'Plume'", "not been read",
+                        "Read Volume Grids"]),
     (_negative_unit, ["Unit Absorption per Band (photic.unit_absorption_bands)", "band 2", ">= 0"]),
     (_bad_unit_model, ["Unit IOP Model (photic.unit_model)", "a_ref"]),
     (_table_missing_band, ["Layer Table Text (photic.profile_table_text)", "a_460", "one column 'a'"]),
@@ -364,6 +365,111 @@ def test_bad_natural_water_input_names_object_and_property(empty, tmp_path, buil
     message = str(info.value)
     assert message.startswith("Object '"), message
     for text in expected:
+        assert text in message, message
+
+
+def volume_with_cube_grid(name="Plume", size=(2.0, 1.0, 1.0), voxel=0.25, density=2.0,
+                          offset=(0.0, 0.0, 0.0)):
+    """A Volume object whose own geometry nodes make its 'density' grid: ``density`` in the
+    voxels whose centres lie inside a cube of ``size`` (m, object space) centred at
+    ``offset``, 0 elsewhere (Mesh to Density Grid, no gradient band), voxels of ``voxel`` m."""
+    vol = link(bpy.data.objects.new(name, bpy.data.volumes.new(name)))
+    tree = bpy.data.node_groups.new(name + " grid", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes, links = tree.nodes, tree.links
+    cube = nodes.new("GeometryNodeMeshCube")
+    cube.inputs["Size"].default_value = size
+    grid = nodes.new("GeometryNodeMeshToDensityGrid")
+    grid.inputs["Density"].default_value = density
+    grid.inputs["Voxel Size"].default_value = voxel
+    grid.inputs["Gradient Width"].default_value = 0.0
+    store = nodes.new("GeometryNodeStoreNamedGrid")
+    store.data_type = "FLOAT"
+    store.inputs["Name"].default_value = "density"
+    move = nodes.new("GeometryNodeTransform")
+    move.inputs["Translation"].default_value = offset
+    links.new(cube.outputs["Mesh"], move.inputs["Geometry"])
+    links.new(move.outputs["Geometry"], grid.inputs["Mesh"])
+    links.new(nodes.new("NodeGroupInput").outputs[0], store.inputs["Volume"])
+    links.new(grid.outputs[0], store.inputs["Grid"])
+    links.new(store.outputs[0], nodes.new("NodeGroupOutput").inputs[0])
+    vol.modifiers.new("grid", "NODES").node_group = tree
+    return vol
+
+
+@pytest.mark.parametrize("sx", [2.0, -2.0], ids=["scaled", "mirrored"])
+def test_volume_object_grid_is_read_through_geometry_nodes(empty, tmp_path, sx):
+    """A water's grid from a Volume object (its 'density' grid made by its own geometry nodes,
+    the object moved, scaled and mirrored): read_volumes (main thread) then the export give
+    the voxels where the grid has them, exactly: density 2 in the 7 x 3 x 3 voxels whose
+    centres lie strictly inside a 2 x 1 x 1 cube at voxel 0.25 m (object space, centred 0.5 m
+    off the origin along x), times the scale, 0 around, placed where they sit in the world.
+    Moving the Volume afterwards without reading it again is refused (the last read no longer
+    matches), and no temporary object or node group is left behind."""
+    from photic_blender import natural_waters
+    sea = grid_sea(tmp_path)
+    vol = volume_with_cube_grid(offset=(0.5, 0.0, 0.0))
+    vol.location, vol.scale = (1.0, 2.0, -3.0), (sx, 1.0, 1.0)
+    sea.photic.grid_source, sea.photic.grid_box = "VOLUME", vol
+    objects, groups = set(bpy.data.objects.keys()), set(bpy.data.node_groups.keys())
+    done = natural_waters.read_volumes(bpy.context.scene)
+    assert [d[:2] for d in done] == [("Sea", "Plume")]
+    assert set(bpy.data.objects.keys()) == objects and set(bpy.data.node_groups.keys()) == groups
+    scene, _ = export.export_scene(bpy.context.evaluated_depsgraph_get(), photic)
+    g = scene.water[0].iops
+    rho = np.asarray(g.density)
+    assert set(np.unique(rho[rho > 1e-3]).tolist()) == {2.0}
+    inside = np.argwhere(rho > 1.0)
+    assert len(inside) == 7 * 3 * 3
+    cell = np.asarray(g.size) / rho.shape
+    assert np.allclose(cell, [0.5, 0.25, 0.25])
+    centres = np.asarray(g.origin) + (inside + 0.5) * cell
+    # the voxel centres strictly inside: x = 1 + sx (0.5 + (-0.75 .. 0.75)), y 2 +- 0.25, z -3 +- 0.25
+    x = sorted(1.0 + sx * (0.5 + np.array([-0.75, 0.75])))
+    assert np.allclose(centres.min(axis=0), [x[0], 1.75, -3.25])
+    assert np.allclose(centres.max(axis=0), [x[1], 2.25, -2.75])
+    assert np.allclose(centres.mean(axis=0), [1.0 + 0.5 * sx, 2.0, -3.0])
+    vol.location.x += 1.0
+    with pytest.raises(export.ExportError, match="not been read"):
+        export.export_scene(bpy.context.evaluated_depsgraph_get(), photic)
+
+
+def test_volume_grid_scene_renders_through_the_command_line_path(empty, tmp_path):
+    """The turbid slab of the F12 test below as a Volume object's grid, rendered by
+    ``render_blend`` (``photic blend``), which reads the Volume before the render: a radiometer
+    looking down on the slab sees more upwelling light than one over clear water."""
+    sea = grid_sea(tmp_path)
+    sea.photic.unit_absorption_bands, sea.photic.unit_scattering = "0.05", 5.0
+    vol = volume_with_cube_grid(size=(4.0, 8.0, 4.0), voxel=0.5, density=1.0)
+    vol.location = (2.0, 0.0, -2.0)  # x from 0 to 4 m, 0 to 4 m deep
+    sea.photic.grid_source, sea.photic.grid_box = "VOLUME", vol
+    sun = link(bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN")))
+    sun.rotation_euler = (math.radians(30), 0.0, 0.0)
+    for name, x in (("Lu_turbid", 2.0), ("Lu_clear", -2.0)):
+        r = link(bpy.data.objects.new(name, None))
+        r.location = (x, 0.0, 0.5)
+        r.photic.role, r.photic.quantity = "RADIOMETER", "radiance"
+    empty.photic.samples, empty.photic.radiometer_samples = 2, 4000
+    bpy.ops.wm.save_mainfile()
+    summary = render_blend(tmp_path / "scene.blend", out_dir=tmp_path / "out")
+    assert Path(summary["image"]).is_file()
+    rows = {r["name"]: r for r in final_render.LAST_RADIOMETERS[bpy.context.scene.name]["rows"]}
+    turbid, clear = (np.array(rows[n]["value"]) for n in ("Lu_turbid", "Lu_clear"))
+    assert np.all(np.isfinite(turbid)) and np.all(turbid > 3 * clear), (turbid, clear)
+
+
+def test_volume_without_density_grid_names_the_volume(empty, tmp_path):
+    from photic_blender import natural_waters
+    sea = grid_sea(tmp_path)
+    vol = link(bpy.data.objects.new("Empty Plume", bpy.data.volumes.new("Empty Plume")))
+    sea.photic.grid_source, sea.photic.grid_box = "VOLUME", vol
+    (water, volume, got), = natural_waters.read_volumes(bpy.context.scene)
+    assert isinstance(got, export.ExportError)
+    with pytest.raises(export.ExportError) as info:
+        export.export_scene(bpy.context.evaluated_depsgraph_get(), photic)
+    message = str(info.value)
+    for text in ("Object 'Sea'", "Grid Box (photic.grid_box)", "Volume 'Empty Plume'", "no grid 'density'"):
         assert text in message, message
 
 
