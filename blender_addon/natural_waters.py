@@ -345,8 +345,8 @@ def grid_box(ex, owner: str, box, bounds) -> tuple[np.ndarray, np.ndarray]:
 
 def _volume_key(box, frame: int) -> tuple:
     """What a cached read of a Volume's grid depends on, as far as can be seen without reading
-    it: the object, its data's file (path, size, time) and frame, its transform and its
-    evaluated bounds and grid transform."""
+    it: the object and its data, the data's file (path, size, time), the frame, the object's
+    transform and modifiers (not their inputs)."""
     volume = box.data
     path = bpy.path.abspath(volume.filepath, library=volume.library) if volume.filepath else ""
     try:
@@ -354,7 +354,8 @@ def _volume_key(box, frame: int) -> tuple:
     except OSError:
         st = None
     file = (path, st.st_size, st.st_mtime_ns) if st else (path,)
-    return (box.name, volume.name, frame, file, tuple(map(tuple, box.matrix_world)),
+    # (session_uid: the same data-blocks, not others of the same names in a file opened since)
+    return (box.session_uid, volume.session_uid, frame, file, tuple(map(tuple, box.matrix_world)),
             tuple(box.modifiers.keys()))
 
 
