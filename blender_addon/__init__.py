@@ -26,7 +26,7 @@ try:
 except ImportError:  # a distribution Blender without numpy: use the engine's environment
     engine_loader.add_search_paths()
 
-from . import engine, operators, properties, ui, waves_preview  # noqa: E402
+from . import engine, natural_waters, operators, properties, ui, waves_preview  # noqa: E402
 
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory(
     properties.classes + operators.classes + (engine.PhoticRenderEngine,) + ui.classes)
@@ -37,9 +37,11 @@ def register():
     operators.register()
     engine.register()
     waves_preview.register()
+    natural_waters.register()
 
 
 def unregister():
+    natural_waters.unregister()
     waves_preview.unregister()
     engine.unregister()
     operators.unregister()

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import bpy
 import numpy as np
+from bpy.app.handlers import persistent
 
 from .export import ExportError, _obj, blender_float, per_band
 
@@ -435,3 +436,24 @@ def volume_density(ex, owner: str, box):
                                             f"Volume Grids' in the water's Photic panel (again "
                                             f"after changing the Volume), or render from the "
                                             f"command line")
+
+
+@persistent
+def _read_volumes_on_load(*_args):
+    """After a file is opened (main thread): its water objects' Volume grids, so that an F12
+    render right away finds them read. Never raises: what failed is kept and reported by the
+    export, naming the object."""
+    try:
+        read_volumes(bpy.context.scene)
+    except Exception as exc:  # noqa: BLE001  (a handler must not break file loading)
+        print(f"Photic: reading Volume grids after loading failed: {exc}")
+
+
+def register():
+    if _read_volumes_on_load not in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.append(_read_volumes_on_load)
+
+
+def unregister():
+    if _read_volumes_on_load in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(_read_volumes_on_load)

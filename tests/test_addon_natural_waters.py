@@ -459,6 +459,21 @@ def test_volume_grid_scene_renders_through_the_command_line_path(empty, tmp_path
     assert np.all(np.isfinite(turbid)) and np.all(turbid > 3 * clear), (turbid, clear)
 
 
+def test_volume_grids_are_read_when_a_file_is_opened(empty, tmp_path):
+    """Opening a .blend reads its water objects' Volume grids (a load_post handler), so an
+    F12 render right away finds them: the export needs no further read."""
+    from photic_blender import natural_waters
+    sea = grid_sea(tmp_path)
+    vol = volume_with_cube_grid()
+    sea.photic.grid_source, sea.photic.grid_box = "VOLUME", vol
+    bpy.ops.wm.save_mainfile()
+    natural_waters._VOLUME_CACHE.clear()
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "scene.blend"))
+    assert natural_waters._VOLUME_CACHE
+    scene, _ = export.export_scene(bpy.context.evaluated_depsgraph_get(), photic)
+    assert int((np.asarray(scene.water[0].iops.density) > 1.0).sum()) == 7 * 3 * 3
+
+
 def test_volume_without_density_grid_names_the_volume(empty, tmp_path):
     from photic_blender import natural_waters
     sea = grid_sea(tmp_path)
