@@ -130,6 +130,9 @@ def _grid_props(obj, w, collection) -> None:
         raise ValueError(f"{owner}: the grid's densities are given inline; Blender reads them "
                          f"from a .npz: save them with numpy.savez(path, density=array) and "
                          f"give the grid's 'file'")
+    if not hasattr(g.iops, "absorption"):  # a depth profile under the grid
+        raise ValueError(f"{owner}: the grid's base IOPs are a depth profile; a Blender water "
+                         f"object has either a profile or a grid over homogeneous IOPs")
     _iops_props(p, owner, g.iops, "its grid's base IOPs have ")
     p.unit_source = "VALUES"
     p.unit_absorption_bands = _numbers(g.unit.absorption)

@@ -533,6 +533,14 @@ def test_refused_import_says_why(empty, tmp_path):
     from photic_blender.importer import import_scene
     with pytest.raises(ValueError, match="water 'sea'.*inline.*numpy.savez"):
         import_scene(Scene.from_dict(d), empty)
+    # a grid over a depth profile: a Blender water object has a profile or a grid
+    np.savez(tmp_path / "g.npz", density=np.ones((1, 1, 1)))
+    g = d["water"][0]["iop_grid"]
+    del g["density"]
+    g["file"] = "g.npz"
+    g["base"] = {"iop_profile": {"z_top": [0.0, -1.0], "layers": [{"iops": {"absorption": [0.1]}}] * 2}}
+    with pytest.raises(ValueError, match="water 'sea'.*depth profile"):
+        import_scene(Scene.from_dict(d, base_dir=tmp_path), empty)
 
 
 class FakeLayout:

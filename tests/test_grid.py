@@ -95,6 +95,22 @@ def test_horizontal_slab_is_a_two_layer_profile(zscore, integrator):
     compare(zscore, f"{integrator} slab grid", prof, g)
 
 
+@pytest.mark.parametrize("integrator", ["hybrid", "path"])
+def test_grid_over_a_depth_profile(zscore, integrator):
+    """A grid on top of a two-layer base (tops 0 and -3.5 m): a slab of density 1 from 2 to
+    5 m deep, across the base's boundary, equals the four-layer profile base | base + unit |
+    lower base + unit | lower base, within errors (Ed, Eu, Eo at 1, 3, 6 m)."""
+    top, low, unit = mixture(0.06, 0.1, 0.03), mixture(0.15, 0.5, 0.03), mixture(0.2, 0.8, 0.0)
+    z = -40.0 + (np.arange(42) + 0.5)   # cell centres of the 1 m cells from -40 to +2 m
+    rho = np.broadcast_to(np.where((z < -2.0) & (z > -5.0), 1.0, 0.0), (2, 2, 42))
+    g = grid(top, unit, rho)
+    g["base"] = {"iop_profile": {"z_top": [0.0, -3.5], "layers": [{"iops": top}, {"iops": low}]}}
+    prof = render(sea(RADS, profile=([0.0, -2.0, -3.5, -5.0], [top, add(top, unit), add(low, unit), low]),
+                      integrator=integrator, seed=81), radiometer_samples=N[integrator])
+    gr = render(sea(RADS, grid=g, integrator=integrator, seed=82), radiometer_samples=N[integrator])
+    compare(zscore, f"{integrator} grid over profile", prof, gr)
+
+
 def test_stratified_column_as_grid_and_profile(zscore):
     """A clear top, a turbid layer (1.5-4 m) and moderately turbid water below, as an
     iop_profile and as a grid (0.5 m cells, densities 0, 1, 0.3; the box reaching 40 m):
@@ -217,13 +233,24 @@ def _thin_field():
     return rho
 
 
-def absorbing_grid(rho, box) -> dict:
+def absorbing_grid(rho, box, base_profile=None) -> dict:
     """A sunlit sea with b = 0 whose absorption is 0.05 + 0.3 rho per metre over the box
-    (as a scene dict, one radiometer to replace)."""
+    (as a scene dict, one radiometer to replace); ``base_profile`` = (z_top, a per layer):
+    the base a depth profile instead of 0.05."""
     d = sea([rad("Ed", 1.0)], iops=mixture(0.05, 0.0, 0.0)).to_dict()
     del d["water"][0]["iops"]
     d["water"][0]["iop_grid"] = grid(mixture(0.05, 0.0, 0.0), mixture(0.3, 0.0, 0.0), rho, box)
+    if base_profile is not None:
+        d["water"][0]["iop_grid"]["base"] = {"iop_profile": {
+            "z_top": list(base_profile[0]),
+            "layers": [{"iops": mixture(a, 0.0, 0.0)} for a in base_profile[1]]}}
     return d
+
+
+def _layered_depth(z, z_top, a):
+    """int a dz from height z (< 0) up to the surface through layers with tops z_top."""
+    tops = list(z_top) + [-np.inf]
+    return sum(ai * max(0.0, min(tops[i], 0.0) - max(tops[i + 1], z)) for i, ai in enumerate(a))
 
 
 def _exact_integral(rho, lo, size, p0, p1):
@@ -360,18 +387,22 @@ def _on_face(p0, p1, lo, cell):
 SMALL_SUN = 0.002
 
 
-@pytest.mark.parametrize("field", ["dense 4x5x6", "sparse 37x29x45"])
+LAYERED_BASE = ([0.0, -1.7, -3.1], [0.05, 0.4, 0.15])  # a depth profile under the grid
+
+
+@pytest.mark.parametrize("field", ["dense 4x5x6", "sparse 37x29x45", "dense 4x5x6 over layers"])
 def test_sun_through_absorbing_3d_field(field):
     """A small sun (0.002 deg) at 35 deg, b = 0, random absorbing densities (in 4 x 5 x 6
-    voxels, or sparse in several bricks): Ed at three points equals the disk quadrature with
-    the optical depth integrated in numpy along the refracted ray (cut at every voxel face), to
-    1e-3 (a deterministic estimate: no scattering, one refracted path
-    per sample)."""
+    voxels, or sparse in several bricks; or over a base of three absorbing layers): Ed at
+    three points equals the disk quadrature with the optical depth integrated in numpy along
+    the refracted ray (cut at every voxel face; the layers' in closed form), to 1e-3 (a
+    deterministic estimate: no scattering, one refracted path per sample)."""
     import math
     from test_stratified import refracted_sun
     rho = np.random.default_rng(7).random((4, 5, 6)) * 2.0 if field.startswith("dense") else _sparse_field()
     box = ([-1.5, -2.0, -4.0], [3.0, 4.0, 4.2])   # the top above the surface
-    d = absorbing_grid(rho, box)
+    layered = field.endswith("over layers")
+    d = absorbing_grid(rho, box, LAYERED_BASE if layered else None)
     points = [(0.3, -0.2, -1.0), (-0.5, 0.7, -2.5), (0.9, 0.1, -3.7)]
     if field.startswith("sparse"):  # rays through either blob, one through neither, and more
         rng = np.random.default_rng(5)  # (bricks whose sunward rays miss every blob need no walk)
@@ -397,6 +428,8 @@ def test_sun_through_absorbing_3d_field(field):
         dens = _exact_integral(rho, box[0], box[1], np.asarray(p), np.asarray(p) + up * length) / length
         # the vertical-depth form of refracted_sun: tau_vertical = tau_along_ray * mu_w
         tau = (0.05 + 0.3 * dens) * length * mu_w
+        if layered:
+            tau = _layered_depth(p[2], *LAYERED_BASE) + 0.3 * dens * length * mu_w
         ref = refracted_sun(35.0, tau, diameter_deg=SMALL_SUN)
         if field.startswith("sparse") and i < 2:
             assert dens > 0.2  # the ray does cross a blob
@@ -577,12 +610,38 @@ def _grid_scene(**changes):
      "iop_grid.unit.iops.scattering", "same components"),
     ({"unit": {"iops": mixture(-0.1, 0.2, 0.0)}}, "iop_grid.unit.iops.absorption", ">= 0"),
     ({"file": "missing.npz"}, "iop_grid.file", "give only one of"),
+    ({"base": {"iop_profile": {"z_top": [0.0, 1.0], "layers": [{"iops": mixture(0.05, 0.1, 0.02)}] * 2}}},
+     "iop_grid.base.iop_profile.z_top[1]", "below"),
+    ({"base": {"iop_profile": {"z_top": [0.0, -1.0], "layers": [{"iops": mixture(0.05, 0.1, 0.02)}] * 2}},
+      "unit": {"iops": {"absorption": [0.1], "scattering": [{"b": [0.1], "phase": HG}]}}},
+     "iop_grid.unit.iops.scattering", "iop_grid.base.iop_profile.layers[0].iops has 2"),
 ])
 def test_bad_grids_are_scene_errors(changes, field, text):
     with pytest.raises(SceneError) as e:
         _grid_scene(**changes)()
     msg = str(e.value)
     assert "sea" in msg and field in msg and text in msg, msg
+
+
+def test_grid_over_a_profile_round_trips_and_validates_against_the_schema(tmp_path):
+    """A grid whose base is a depth profile is written back as such (scene file, schema-valid)
+    and reads back equal; a unit from a model is aligned with every layer's components."""
+    import jsonschema
+    from photic.scene import IOPProfile, load_scene, save_scene, scene_schema
+    g = grid(mixture(0.05, 0.1, 0.02), mixture(0.1, 0.2, 0.03), np.arange(8.0).reshape(2, 2, 2))
+    g["base"] = {"iop_profile": {"z_top": [0.0, -2.0], "layers": [{"iops": mixture(0.05, 0.1, 0.02)},
+                                                                  {"iops": mixture(0.2, 0.3, 0.02)}]}}
+    sc = sea([rad("Ed", 1.0)], grid=g)
+    assert isinstance(sc.water[0].iops.iops, IOPProfile)
+    save_scene(sc, tmp_path / "s.json")
+    d = json.loads((tmp_path / "s.json").read_text())
+    jsonschema.validate(d, scene_schema())
+    assert "iop_profile" in d["water"][0]["iop_grid"]["base"]
+    assert load_scene(tmp_path / "s.json") == sc
+    g["unit"] = {"iop_model": {"model": "particles", "b_ref": 1.0, "backscatter_fraction": 0.02}}
+    w = sea([rad("Ed", 1.0)], grid=g).water[0].iops
+    phases = [[c.phase for c in x.scattering] for x in w.iops.layers + [w.unit]]
+    assert len(phases[0]) == 3 and phases[0] == phases[1] == phases[2]
 
 
 @pytest.mark.parametrize("bad", [float("nan"), -1.0, float("inf")])

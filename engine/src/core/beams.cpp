@@ -42,7 +42,6 @@ struct SourceTri {
 void Scene::set_grid_coefficients(Water& w) const {
     VoxelGrid& g = *w.grid;
     WaterLayer& U = w.grid_unit;
-    const WaterLayer& B = w.layers[0];
     U.b_path = Spectrum();
     U.comp_b_path.assign(w.components.size(), Spectrum());
     for (size_t ci = 0; ci < w.components.size(); ++ci)
@@ -54,18 +53,21 @@ void Scene::set_grid_coefficients(Water& w) const {
         U.c_beam.v[k] = U.a.v[k] + U.b_path.v[k];
         U.c_path.v[k] = U.c_beam.v[k];
     }
+    // Over the base's layers (a depth profile under the grid) and bands.
     w.grid_s0 = w.grid_s1 = 0.0;
-    for (int k = 0; k < nbands; ++k) {
-        w.grid_s0 = std::max(w.grid_s0, B.b_path.v[k]);
-        w.grid_s1 = std::max(w.grid_s1, U.b_path.v[k]);
+    for (int k = 0; k < nbands; ++k) w.grid_s1 = std::max(w.grid_s1, U.b_path.v[k]);
+    double cmean = 0.0;
+    for (const WaterLayer& B : w.layers) {
+        double layer_mean = 0.0;
+        for (int k = 0; k < nbands; ++k) {
+            w.grid_s0 = std::max(w.grid_s0, B.b_path.v[k]);
+            w.c_beam_min = std::min(w.c_beam_min, B.c_beam.v[k] + g.rho_min * U.c_beam.v[k]);
+            w.a_min = std::min(w.a_min, B.a.v[k]);
+            layer_mean += (B.c_path.v[k] + g.rho_max * U.c_path.v[k]) / nbands;
+        }
+        cmean = std::max(cmean, layer_mean);
     }
     w.majorant = std::max(w.majorant, w.grid_s0 + g.rho_max * w.grid_s1);
-    double cmean = 0.0;
-    for (int k = 0; k < nbands; ++k) {
-        w.c_beam_min = std::min(w.c_beam_min, B.c_beam.v[k] + g.rho_min * U.c_beam.v[k]);
-        w.a_min = std::min(w.a_min, B.a.v[k]);
-        cmean += (B.c_path.v[k] + g.rho_max * U.c_path.v[k]) / nbands;
-    }
     if (!(w.c_path_mean > 0.0)) w.c_path_mean = cmean;  // any rate > 0 is unbiased
     for (size_t ci = 0; ci < w.components.size(); ++ci) {
         double b = 0.0;
@@ -534,7 +536,7 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
         for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * std::exp(-c.v[k] * l) / (a_eff * md);
     } else if (w.grid) {  // the beam's straight path from the surface (y - d l) to y through the voxels
         double att[kMaxBands];
-        w.grid_transmittance(l, w.grid->integral(y - d * l, y, l), nbands, att);
+        w.grid_transmittance(y.z - d.z * l, y.z, l, w.grid->integral(y - d * l, y, l), nbands, att);
         for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * att[k] / (a_eff * md);
     } else {  // the same through the layers
         Spectrum tau;
@@ -573,7 +575,7 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool ex
                         r = w.grid->integral(x - fd * lb, x - fd * la, lb - la);
                     }
                     double att[kMaxBands];
-                    w.grid_transmittance(l, r, nbands, att);
+                    w.grid_transmittance(ocean_z, x.z, l, r, nbands, att);
                     for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * att[k];
                 } else {  // the same through the layers
                     Spectrum tau;

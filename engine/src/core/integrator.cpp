@@ -64,7 +64,7 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
     if (n == 0) return;
     // The local scattering at x (in a grid the base's plus the density rx times the unit's)
     // and the attenuation back to o (through the layers or voxels crossed).
-    const WaterLayer& L = w.grid ? w.layers[0] : w.layer_at(x.z);
+    const WaterLayer& L = w.layer_at(x.z);
     const double rx = w.grid ? w.grid->at(x) : 0.0;
     double att[kMaxBands];
     if (deferred_t) {  // gridded water only: the caller's walk along the segment will tell
@@ -73,7 +73,7 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
     } else if (!w.varying()) {
         for (int kb = 0; kb < nbands; ++kb) att[kb] = std::exp(-L.c_path.v[kb] * t);
     } else if (w.grid) {
-        w.grid_transmittance(t, w.grid->integral(o, x, t), nbands, att);
+        w.grid_transmittance(o.z, x.z, t, w.grid->integral(o, x, t), nbands, att);
     } else {
         Spectrum tau;
         w.add_optical_depth(&WaterLayer::c_path, o.z, x.z, t, nbands, &tau);
@@ -238,11 +238,11 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 if (beam && end && t_beam > t_end) r_beam = gcursor->value(t_beam);
                 if (t_beam >= 0.0) {
                     double att[kMaxBands];
-                    w.grid_transmittance(t_beam, r_beam, nb, att);
+                    w.grid_transmittance(o.z, o.z + d.z * t_beam, t_beam, r_beam, nb, att);
                     for (int kb = 0; kb < nb; ++kb) out.beam_volume.v[kb] += beam_wait.v[kb] * att[kb];
                     t_beam = -1.0;
                 }
-                if (end) w.grid_absorption(t_end, r_end, nb, &tau_a);
+                if (end) w.grid_absorption(o.z, o.z + d.z * t_end, t_end, r_end, nb, &tau_a);
             };
             // Path tracing traces only to the first tentative collision: short rays are cheaper,
             // and most flights in water end in the volume (a grid's walk goes on to it first,
@@ -272,7 +272,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
 
             while (t_cur + dt < t_hit) {
                 t_cur += dt;
-                if (w.grid) L = &w.local_at_density(grho, &grid_local, nb);
+                if (w.grid) L = &w.local_at_density(grho, o.z + d.z * t_cur, &grid_local, nb);
                 else if (strat) L = &w.layers[lc];
                 else pending += dt;
                 const double maj = w.grid ? w.grid_s0 + w.grid_s1 * grho : strat ? L->majorant : w.majorant;
@@ -305,9 +305,9 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             }
             if (scattered) {
                 settle(t_cur);
-                if (L == &grid_local) w.local_components(grho, &grid_local, nb);
+                if (L == &grid_local) w.local_components(grho, o.z + d.z * t_cur, &grid_local, nb);
                 if (++depth > max_depth) return out;
-                if (w.stratified()) travel(w, o, d, t_cur);
+                if (w.stratified() && !w.grid) travel(w, o, d, t_cur);  // (a grid: settle did)
                 o = o + d * t_cur;
                 // Choose a mixture component by its throughput-weighted share of scattering,
                 // sample it (outside the forward cone), and weight each band by its own
@@ -397,7 +397,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             }
             settle(h.valid ? t_hit : kInf);
             if (!h.valid) return out;  // lost in infinitely deep water
-            if (w.stratified()) travel(w, o, d, t_hit);
+            if (w.stratified() && !w.grid) travel(w, o, d, t_hit);
             else pending += t_hit - t_cur;
         } else {
             h = intersect(o, d);

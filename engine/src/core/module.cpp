@@ -228,7 +228,6 @@ PYBIND11_MODULE(_core, m) {
                                   DArray a, std::vector<DArray> b) {
             if (water < 0 || water >= int(s.waters.size())) throw std::invalid_argument("bad water index");
             Water& w = s.waters[water];
-            if (w.layers.size() != 1) throw std::invalid_argument("a grid needs water with one layer of base IOPs");
             if (rho.ndim() != 3) throw std::invalid_argument("the density must be an (nx, ny, nz) array");
             if (b.size() != w.components.size())
                 throw std::invalid_argument("the grid's unit IOPs need one scattering spectrum per component");
@@ -259,7 +258,8 @@ PYBIND11_MODULE(_core, m) {
         }, py::arg("water"), py::arg("lo"), py::arg("hi"), py::arg("density"), py::arg("absorption"),
            py::arg("scattering"),
            "3-D IOPs of a water body over the box [lo, hi]: per voxel (density[i, j, k], x fastest "
-           "varying in i) its IOPs are the base plus density times these unit IOPs.")
+           "varying in i) its IOPs are the base (its layer at that height, if it has several) plus "
+           "density times these unit IOPs.")
         .def("add_mesh", [](Scene& s, FArray v, UArray t, int kind, int index) {
             if (v.ndim() != 2 || v.shape(1) != 3 || t.ndim() != 2 || t.shape(1) != 3)
                 throw std::invalid_argument("vertices and triangles must be (N, 3) arrays");

@@ -68,25 +68,28 @@ struct Water {
     double mis_wsum = 0.0;               // sum of the components' weights (its pdf)
 
     bool stratified() const { return layers.size() > 1; }
-    // 3-D IOPs over a box, or null: c(x) = c_base + rho(x) c_unit (absorption and each
-    // component's b alike), with the base IOPs in layers[0] and the unit ones in grid_unit.
+    // 3-D IOPs over a box, or null: c(x) = c_base(z) + rho(x) c_unit (absorption and each
+    // component's b alike), with the base IOPs in the layers (one: homogeneous; several: a
+    // depth profile) and the unit ones in grid_unit.
     std::shared_ptr<VoxelGrid> grid;
     WaterLayer grid_unit;
     // The free paths' majorant in a grid where the density is rho: s0 + s1 rho >= b_path in
-    // every band (s0, s1: the base and unit b_path's largest over the bands).
+    // every band (s0, s1: the base and unit b_path's largest over the bands and layers).
     double grid_s0 = 0.0, grid_s1 = 0.0;
     bool varying() const { return layers.size() > 1 || grid; }
     // A grid's coefficients where its density is r: the base plus r times the unit (written
     // into *scratch). Only what a collision's decision reads, b_path (linear in r like every
     // coefficient, so the base's and unit's sums serve); a scattering vertex then asks for
     // the components' b_path with local_components.
-    const WaterLayer& local_at_density(double r, WaterLayer* scratch, int nb) const {
-        if (r == 0.0) return layers[0];
-        for (int k = 0; k < nb; ++k) scratch->b_path.v[k] = layers[0].b_path.v[k] + r * grid_unit.b_path.v[k];
+    // (z: the height, for the base's layer.)
+    const WaterLayer& local_at_density(double r, double z, WaterLayer* scratch, int nb) const {
+        const WaterLayer& B = layer_at(z);
+        if (r == 0.0) return B;
+        for (int k = 0; k < nb; ++k) scratch->b_path.v[k] = B.b_path.v[k] + r * grid_unit.b_path.v[k];
         return *scratch;
     }
-    void local_components(double r, WaterLayer* scratch, int nb) const {
-        const WaterLayer& B = layers[0];
+    void local_components(double r, double z, WaterLayer* scratch, int nb) const {
+        const WaterLayer& B = layer_at(z);
         const size_t nc = B.comp_b_path.size();
         scratch->comp_b_path.resize(nc);
         for (size_t c = 0; c < nc; ++c)
@@ -96,10 +99,22 @@ struct Water {
     // Grid, a segment of length len over which the density integrates to r: its absorption
     // optical depth added to *tau, and its attenuation exp(-c_path optical depth) into
     // t[0..nb) (no spectrum to clear: these run once or twice per path segment), per band.
-    void grid_absorption(double len, double r, int nb, Spectrum* tau) const {
+    // The segment runs from height z0 to z1 (the base's layers).
+    void grid_absorption(double z0, double z1, double len, double r, int nb, Spectrum* tau) const {
+        if (layers.size() > 1) {
+            add_optical_depth(&WaterLayer::a, z0, z1, len, nb, tau);
+            for (int k = 0; k < nb; ++k) tau->v[k] += grid_unit.a.v[k] * r;
+            return;
+        }
         for (int k = 0; k < nb; ++k) tau->v[k] += layers[0].a.v[k] * len + grid_unit.a.v[k] * r;
     }
-    void grid_transmittance(double len, double r, int nb, double* t) const {
+    void grid_transmittance(double z0, double z1, double len, double r, int nb, double* t) const {
+        if (layers.size() > 1) {
+            Spectrum tau;
+            add_optical_depth(&WaterLayer::c_path, z0, z1, len, nb, &tau);
+            for (int k = 0; k < nb; ++k) t[k] = std::exp(-(tau.v[k] + grid_unit.c_path.v[k] * r));
+            return;
+        }
         for (int k = 0; k < nb; ++k) t[k] = std::exp(-(layers[0].c_path.v[k] * len + grid_unit.c_path.v[k] * r));
     }
     const WaterLayer& layer_at(double z) const { return layers[layer_index(z)]; }

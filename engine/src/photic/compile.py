@@ -69,9 +69,10 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
     for w in scene.water:
         # Stratified water: the first layer makes the water body, the others go below it
         # (every layer has the same components: phase functions, in the same order).
+        # A grid adds density x unit IOPs to its base: homogeneous IOPs or a depth profile.
         grid = w.iops if isinstance(w.iops, IOPGrid) else None
-        layers = (w.iops.layers if isinstance(w.iops, IOPProfile)
-                  else [grid.iops] if grid is not None else [w.iops])
+        base = grid.iops if grid is not None else w.iops
+        layers = base.layers if isinstance(base, IOPProfile) else [base]
         comps = []
         for comp in layers[0].scattering:
             pid = core.add_phase(make_core_phase(comp.phase.type, comp.phase.params))
@@ -79,7 +80,7 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
         if not comps:  # no scattering component: a purely absorbing body
             comps.append((core.add_phase(make_core_phase("isotropic")), np.zeros(nb)))
         wi = core.add_water(float(w.ior), sel(layers[0].absorption), comps)
-        for z_top, layer in zip(np.asarray(w.iops.z_top)[1:] if len(layers) > 1 else [], layers[1:]):
+        for z_top, layer in zip(np.asarray(base.z_top)[1:] if len(layers) > 1 else [], layers[1:]):
             b = [sel(c.b) for c in layer.scattering] or [np.zeros(nb)]
             core.add_water_layer(wi, float(z_top), sel(layer.absorption), b)
         if grid is not None:  # 3-D IOPs: base + density x unit over the box

@@ -97,10 +97,10 @@ def optical_depth_scale(scene: Scene) -> float:
         if isinstance(w.iops, IOPGrid):  # 3-D: bounded by the densest voxel everywhere
             g = w.iops
             rmax = float(np.max(g.density)) if np.size(g.density) else 0.0
-            c = np.asarray(g.iops.absorption) + np.asarray(g.iops.total_scattering) + rmax * (
-                np.asarray(g.unit.absorption) + np.asarray(g.unit.total_scattering))
-            c = float(np.max(c))
-            tau = max(tau, c * depth if c > 0 else 0.0)
+            unit = rmax * (np.asarray(g.unit.absorption) + np.asarray(g.unit.total_scattering))
+            for b in (g.iops.layers if isinstance(g.iops, IOPProfile) else [g.iops]):
+                c = float(np.max(np.asarray(b.absorption) + np.asarray(b.total_scattering) + unit))
+                tau = max(tau, c * depth if c > 0 else 0.0)
             continue
         if isinstance(w.iops, IOPProfile):  # stratified: the vertical column's optical depth
             tau = max(tau, _profile_optical_depth(w.iops, top, top - depth))

@@ -353,8 +353,10 @@ class IOPGrid(_ArrayEq):
     ``origin + size`` (m, world axes). Each voxel holds one density ``rho >= 0`` (float32;
     ``density[i, j, k]``, ``i`` along x, ``j`` along y, ``k`` along z), and the IOPs there are
     ``iops + rho * unit``: ``a = a_base + rho a_unit`` and, per scattering component,
-    ``b_c = b_base,c + rho b_unit,c``. Outside the box ``rho = 0`` (the base ``iops``). ``unit``
-    has the same components (phase functions, in the same order) as ``iops``, with ``a`` and
+    ``b_c = b_base,c + rho b_unit,c``. Outside the box ``rho = 0`` (the base ``iops``). The base
+    is homogeneous ``IOPs`` or an ``IOPProfile`` (a depth profile: the base at each height is
+    its layer there). ``unit`` has the same components (phase functions, in the same order) as
+    the base, with ``a`` and
     ``b >= 0`` (b = 0 where a component is absent from the plume). Memory: 4 bytes per voxel
     (256^3: 64 MiB). ``file``: the ``.npz`` the density was read from (key ``density``), kept so
     that a saved scene refers to it instead of writing the voxels inline.
@@ -368,7 +370,7 @@ class IOPGrid(_ArrayEq):
     IOPGrid(...)
     """
 
-    iops: IOPs
+    iops: IOPs | IOPProfile
     unit: IOPs
     origin: np.ndarray
     size: np.ndarray
@@ -1005,29 +1007,30 @@ def _validate_iops(label: str, iops: Any, nbands: int, fld: str = "iops") -> Non
         _validate_phase(label, f"{prefix}.phase.", component.phase)
 
 
-def _validate_profile(label: str, profile: IOPProfile, nbands: int) -> None:
+def _validate_profile(label: str, profile: IOPProfile, nbands: int,
+                      prefix: str = "iop_profile") -> None:
     """Layer tops finite and strictly descending, one valid IOPs per layer, and the same
     phase functions (in the same order) in every layer."""
     z = profile.z_top
     if not isinstance(z, np.ndarray) or z.ndim != 1 or z.dtype.kind not in "fiu" or z.size == 0:
-        raise SceneError(label, "iop_profile.z_top", f"must be a non-empty list of layer tops "
+        raise SceneError(label, f"{prefix}.z_top", f"must be a non-empty list of layer tops "
                                                      f"(m), got {_show(z)}")
     for i, x in enumerate(z.tolist()):
-        _check_real(label, f"iop_profile.z_top[{i}]", x)
+        _check_real(label, f"{prefix}.z_top[{i}]", x)
         if i > 0 and not x < z[i - 1]:
-            raise SceneError(label, f"iop_profile.z_top[{i}]",
+            raise SceneError(label, f"{prefix}.z_top[{i}]",
                              f"must be below z_top[{i - 1}] = {_num(z[i - 1])} m (layer tops "
                              f"run strictly downwards), got {_show(x)}")
     layers = profile.layers
     if not isinstance(layers, list) or len(layers) != z.size:
         count = _entries(len(layers)) if isinstance(layers, list) else _show(layers)
-        raise SceneError(label, "iop_profile.layers", f"needs one IOPs per layer top: z_top has "
+        raise SceneError(label, f"{prefix}.layers", f"needs one IOPs per layer top: z_top has "
                                                       f"{_entries(z.size)}, layers has {count}")
     for i, layer in enumerate(layers):
-        _validate_iops(label, layer, nbands, f"iop_profile.layers[{i}].iops")
+        _validate_iops(label, layer, nbands, f"{prefix}.layers[{i}].iops")
     first = layers[0].scattering
     for i, layer in enumerate(layers[1:], start=1):
-        fld = f"iop_profile.layers[{i}].iops.scattering"
+        fld = f"{prefix}.layers[{i}].iops.scattering"
         if len(layer.scattering) != len(first):
             raise SceneError(label, fld, f"has {len(layer.scattering)} component(s) but layer 0 "
                                          f"has {len(first)}: every layer needs the same "
@@ -1042,18 +1045,23 @@ def _validate_profile(label: str, profile: IOPProfile, nbands: int) -> None:
 def _validate_grid(label: str, grid: IOPGrid, nbands: int) -> None:
     """Base and unit IOPs with the same components, unit coefficients >= 0, a finite box of
     positive size, and a 3-D array of finite densities >= 0."""
-    _validate_iops(label, grid.iops, nbands, "iop_grid.base.iops")
+    if isinstance(grid.iops, IOPProfile):  # a depth profile under the grid
+        _validate_profile(label, grid.iops, nbands, "iop_grid.base.iop_profile")
+        ref_iops, ref_name = grid.iops.layers[0], "iop_grid.base.iop_profile.layers[0].iops"
+    else:
+        _validate_iops(label, grid.iops, nbands, "iop_grid.base.iops")
+        ref_iops, ref_name = grid.iops, "iop_grid.base.iops"
     _validate_iops(label, grid.unit, nbands, "iop_grid.unit.iops")
     fld = "iop_grid.unit.iops.scattering"
-    if len(grid.unit.scattering) != len(grid.iops.scattering):
+    if len(grid.unit.scattering) != len(ref_iops.scattering):
         raise SceneError(label, fld, f"has {len(grid.unit.scattering)} component(s) but "
-                                     f"iop_grid.base.iops has {len(grid.iops.scattering)}: the unit "
+                                     f"{ref_name} has {len(ref_iops.scattering)}: the unit "
                                      f"IOPs need the same components (phase functions), with "
                                      f"b = 0 where absent")
-    for j, (mine, ref) in enumerate(zip(grid.unit.scattering, grid.iops.scattering)):
+    for j, (mine, ref) in enumerate(zip(grid.unit.scattering, ref_iops.scattering)):
         if mine.phase != ref.phase:
             raise SceneError(label, f"{fld}[{j}].phase",
-                             f"is {_phase_text(mine.phase)} but iop_grid.base.iops component {j} is "
+                             f"is {_phase_text(mine.phase)} but {ref_name} component {j} is "
                              f"{_phase_text(ref.phase)}")
         if np.any(np.asarray(mine.b) < 0):
             raise SceneError(label, f"{fld}[{j}].b", f"must be >= 0 in every band, got "
@@ -1508,7 +1516,8 @@ def _read_iops(label: str, d: dict, nbands: int, fld: str = "iops") -> IOPs:
     return IOPs(absorption, components)
 
 
-def _read_profile(label: str, d: dict, bands: list, base_dir: Path) -> IOPProfile:
+def _read_profile(label: str, d: dict, bands: list, base_dir: Path,
+                  prefix: str = "iop_profile") -> IOPProfile:
     """Layers from explicit 'iops' or from an 'iop_model' each; layers from models are aligned
     on the union of the phase functions (photic.profiles.align_components)."""
     z_top = [float(z) for z in d["z_top"]]
@@ -1518,11 +1527,11 @@ def _read_profile(label: str, d: dict, bands: list, base_dir: Path) -> IOPProfil
             from .iop_models import iops_from_model
             modelled = True
             layers.append(iops_from_model(layer["iop_model"], bands, obj=label,
-                                          prefix=f"iop_profile.layers[{i}].iop_model.",
+                                          prefix=f"{prefix}.layers[{i}].iop_model.",
                                           base_dir=base_dir))
         else:
             layers.append(_read_iops(label, layer["iops"], len(bands),
-                                     f"iop_profile.layers[{i}].iops"))
+                                     f"{prefix}.layers[{i}].iops"))
     if modelled:
         from .profiles import align_components
         layers = align_components(layers)
@@ -1533,13 +1542,23 @@ def _read_grid(label: str, d: dict, bands: list, base_dir: Path) -> IOPGrid:
     """Base and unit IOPs (explicit or from a model), the box, and the density: inline nested
     lists or the key 'density' of a numpy .npz 'file' (relative to the scene file)."""
     def iops(key):
+        if key == "base" and "iop_profile" in d[key]:
+            return _read_profile(label, d[key]["iop_profile"], bands, base_dir,
+                                 "iop_grid.base.iop_profile")
         if "iop_model" in d[key]:
             from .iop_models import iops_from_model
             return iops_from_model(d[key]["iop_model"], bands, obj=label,
                                    prefix=f"iop_grid.{key}.iop_model.", base_dir=base_dir)
         return _read_iops(label, d[key]["iops"], len(bands), f"iop_grid.{key}.iops")
     base, unit = iops("base"), iops("unit")
-    if "iop_model" in d["base"] or "iop_model" in d["unit"]:  # one set of components for both
+    if isinstance(base, IOPProfile):
+        modelled = "iop_model" in d["unit"] or any(
+            "iop_model" in x for x in d["base"]["iop_profile"].get("layers", []))
+        if modelled:  # every layer and the unit on one set of components
+            from .profiles import align_components
+            *layers, unit = align_components(list(base.layers) + [unit])
+            base = IOPProfile(base.z_top, layers)
+    elif "iop_model" in d["base"] or "iop_model" in d["unit"]:  # one set of components for both
         from .profiles import align_components
         base, unit = align_components([base, unit])
     if ("file" in d) == ("density" in d):
@@ -1795,6 +1814,10 @@ def _phase_to_dict(p: PhaseFunction) -> dict:
     return {"type": p.type, **{k: float(v) for k, v in p.params.items()}}
 
 
+def _profile_to_dict(p: IOPProfile) -> dict:
+    return {"z_top": _list(p.z_top), "layers": [{"iops": _iops_to_dict(x)} for x in p.layers]}
+
+
 def _iops_to_dict(iops: IOPs) -> dict:
     return {"absorption": _list(iops.absorption),
             "scattering": [{"b": _list(c.b), "phase": _phase_to_dict(c.phase)}
@@ -1804,11 +1827,12 @@ def _iops_to_dict(iops: IOPs) -> dict:
 def _water_to_dict(w: WaterBody) -> dict:
     d: dict[str, Any] = {"name": w.name, "type": w.type, "ior": float(w.ior)}
     if isinstance(w.iops, IOPProfile):
-        d["iop_profile"] = {"z_top": _list(w.iops.z_top),
-                            "layers": [{"iops": _iops_to_dict(x)} for x in w.iops.layers]}
+        d["iop_profile"] = _profile_to_dict(w.iops)
     elif isinstance(w.iops, IOPGrid):
         g = w.iops
-        d["iop_grid"] = {"base": {"iops": _iops_to_dict(g.iops)},
+        base = ({"iop_profile": _profile_to_dict(g.iops)} if isinstance(g.iops, IOPProfile)
+                else {"iops": _iops_to_dict(g.iops)})
+        d["iop_grid"] = {"base": base,
                          "unit": {"iops": _iops_to_dict(g.unit)},
                          "origin": _list(g.origin), "size": _list(g.size)}
         if g.file is not None:
