@@ -105,9 +105,8 @@ def _phase_props(p, prefix: str, phase) -> None:
         setattr(p, f"{prefix}ff_backscatter", phase.params["backscatter_fraction"])
 
 
-def _profile_props(obj, w, level: float, bands) -> None:
+def _profile_props(obj, w, profile, level: float, bands) -> None:
     """A profile of layers with one scattering component as a layer table (a Text)."""
-    profile = w.iops
     p = obj.photic
     _iops_props(p, f"water '{w.name}'", profile.layers[0], "its profile's layers have ")
     names = [name for name, _, _ in bands]
@@ -121,8 +120,9 @@ def _profile_props(obj, w, level: float, bands) -> None:
     p.iop_variation, p.profile_kind, p.profile_table_text = "PROFILE", "TABLE", text
 
 
-def _grid_props(obj, w, collection) -> None:
-    """A grid with one scattering component and a density file; its box as an Empty."""
+def _grid_props(obj, w, collection, level: float, bands) -> None:
+    """A grid with one scattering component and a density file; its box as an Empty; a depth
+    profile as its base as a layer table (Depth Profile + 3-D Grid)."""
     g = w.iops
     p = obj.photic
     owner = f"water '{w.name}'"
@@ -130,10 +130,11 @@ def _grid_props(obj, w, collection) -> None:
         raise ValueError(f"{owner}: the grid's densities are given inline; Blender reads them "
                          f"from a .npz: save them with numpy.savez(path, density=array) and "
                          f"give the grid's 'file'")
-    if not hasattr(g.iops, "absorption"):  # a depth profile under the grid
-        raise ValueError(f"{owner}: the grid's base IOPs are a depth profile; a Blender water "
-                         f"object has either a profile or a grid over homogeneous IOPs")
-    _iops_props(p, owner, g.iops, "its grid's base IOPs have ")
+    layered = hasattr(g.iops, "z_top")  # a depth profile under the grid
+    if layered:
+        _profile_props(obj, w, g.iops, level, bands)
+    else:
+        _iops_props(p, owner, g.iops, "its grid's base IOPs have ")
     p.unit_source = "VALUES"
     p.unit_absorption_bands = _numbers(g.unit.absorption)
     if g.unit.scattering:
@@ -146,15 +147,16 @@ def _grid_props(obj, w, collection) -> None:
     box.location = tuple(np.asarray(g.origin) + 0.5 * np.asarray(g.size))
     box.scale = tuple(0.5 * np.asarray(g.size))
     collection.objects.link(box)
-    p.iop_variation, p.grid_source, p.grid_file, p.grid_box = "GRID", "NPZ", g.file, box
+    p.grid_source, p.grid_file, p.grid_box = "NPZ", g.file, box
+    p.iop_variation = "PROFILE_GRID" if layered else "GRID"
 
 
 def _water_props(obj, w, level: float, bands, collection) -> None:
     """The water's IOPs (homogeneous, a profile or a grid) and refractive index."""
     if hasattr(w.iops, "z_top"):
-        _profile_props(obj, w, level, bands)
+        _profile_props(obj, w, w.iops, level, bands)
     elif hasattr(w.iops, "density"):
-        _grid_props(obj, w, collection)
+        _grid_props(obj, w, collection, level, bands)
     else:
         _iops_props(obj.photic, f"water '{w.name}'", w.iops)
     obj.photic.ior = w.ior

@@ -7,7 +7,8 @@
   table comes from the user, none is bundled) or a CSV table of coefficients against depth;
 - ``GRID``: the object's IOPs plus a density field times unit IOPs over a box (the engine's
   ``IOPGrid``), the density from a ``.npz`` file or from a Volume object's 'density' grid
-  (read through geometry nodes, ``volume_grid``).
+  (read through geometry nodes, ``volume_grid``);
+- ``PROFILE_GRID``: both, the profile as the grid's base (a plume in stratified water).
 
 Depths count down from the water level: the mean sea level of a water surface, the top of a
 water body's mesh. Every problem is an ``ExportError`` naming the object and the property.
@@ -43,11 +44,13 @@ P_UNIT_MODEL = "Photic > Unit IOP Model (photic.unit_model)"
 def varying_iops(ex, obj, level: float, bounds):
     """The ``IOPProfile`` or ``IOPGrid`` of a water object (``ex``: the exporter)."""
     p = obj.original.photic
-    if p.iop_variation == "PROFILE":
-        if p.profile_kind == "CHLOROPHYLL":
-            return chlorophyll_profile(ex, obj, level)
-        return table_profile(ex, obj, level)
-    return density_grid(ex, obj, bounds)
+    profile = None
+    if p.iop_variation in ("PROFILE", "PROFILE_GRID"):
+        profile = (chlorophyll_profile(ex, obj, level) if p.profile_kind == "CHLOROPHYLL"
+                   else table_profile(ex, obj, level))
+        if p.iop_variation == "PROFILE":
+            return profile
+    return density_grid(ex, obj, bounds, profile)
 
 
 # -- tables ----------------------------------------------------------------------------------
@@ -235,13 +238,18 @@ def unit_iops(ex, obj):
     return S.IOPs(a, [S.ScatteringComponent(b, phase)])
 
 
-def density_grid(ex, obj, bounds):
-    """The base IOPs (the object's IOP source) plus density x unit IOPs over the box."""
+def density_grid(ex, obj, bounds, profile=None):
+    """The base IOPs (the object's IOP source, or the depth ``profile``) plus density x unit
+    IOPs over the box, every layer and the unit on one set of components."""
     S = ex.photic.scene
     from photic.profiles import align_components
     p = obj.original.photic
     owner = _obj(obj.name)
-    base, unit = align_components([ex.iops(obj), unit_iops(ex, obj)])
+    if profile is not None:
+        *layers, unit = align_components(list(profile.layers) + [unit_iops(ex, obj)])
+        base = S.IOPProfile(profile.z_top, layers)
+    else:
+        base, unit = align_components([ex.iops(obj), unit_iops(ex, obj)])
     if p.grid_source == "VOLUME":
         density, lo, hi = volume_density(ex, owner, p.grid_box)
         file = None
@@ -375,7 +383,8 @@ def read_volumes(scene) -> list:
         return done
     for obj in scene.objects:
         p = getattr(obj, "photic", None)
-        if p is None or p.role not in WATER_ROLES or p.iop_variation != "GRID" or p.grid_source != "VOLUME":
+        if (p is None or p.role not in WATER_ROLES or p.iop_variation not in ("GRID", "PROFILE_GRID")
+                or p.grid_source != "VOLUME"):
             continue
         box = p.grid_box
         if box is None or box.type != "VOLUME":

@@ -187,7 +187,10 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
                                             "through the Case-1 model, or a table of "
                                             "coefficients against depth"),
                ("GRID", "3-D Grid", "The IOPs above plus a density field times the unit IOPs "
-                                    "below, over a box (a sediment plume, a bloom)")],
+                                    "below, over a box (a sediment plume, a bloom)"),
+               ("PROFILE_GRID", "Depth Profile + 3-D Grid",
+                "A depth profile as above plus a density field times the unit IOPs over a box "
+                "(a plume in stratified water)")],
         description="How the water's IOPs vary in space (docs/blender.md, 'Natural waters')")
     profile_kind: EnumProperty(
         name="Profile", default="CHLOROPHYLL",

@@ -197,7 +197,7 @@ class PHOTIC_PT_iop_variation(PhoticPanel, bpy.types.Panel):
         layout.use_property_split = True
         p = context.object.photic
         layout.prop(p, "iop_variation")
-        if p.iop_variation == "PROFILE":
+        if p.iop_variation in ("PROFILE", "PROFILE_GRID"):
             layout.prop(p, "profile_kind")
             if p.profile_kind == "CHLOROPHYLL":
                 col = layout.column(align=True)
@@ -220,8 +220,9 @@ class PHOTIC_PT_iop_variation(PhoticPanel, bpy.types.Panel):
                 sub = col.row()
                 sub.active = p.profile_table_text is None
                 sub.prop(p, "profile_table_file")
-        elif p.iop_variation == "GRID":
-            layout.label(text="IOPs = the IOPs above + density x unit IOPs")
+        if p.iop_variation in ("GRID", "PROFILE_GRID"):
+            layout.label(text="IOPs = the IOPs above + density x unit IOPs" if p.iop_variation == "GRID"
+                         else "IOPs = the profile's layer + density x unit IOPs")
             layout.prop(p, "grid_source")
             if p.grid_source == "NPZ":
                 layout.prop(p, "grid_file")

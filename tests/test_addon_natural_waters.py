@@ -493,8 +493,9 @@ def test_volume_without_density_grid_names_the_volume(empty, tmp_path):
 # ------------------------------------------------------------------------------------------
 
 def test_profile_and_grid_scenes_import_and_export_back(empty, tmp_path):
-    """File > Import of a scene with a profile and one with a grid: the objects export back
-    to the same water (the grid's box becomes an Empty; values with exact float32 forms)."""
+    """File > Import of a scene with a profile, one with a grid and one with a grid over a
+    profile: the objects export back to the same water (the grid's box becomes an Empty;
+    values with exact float32 forms)."""
     np.savez(tmp_path / "g.npz", density=np.random.default_rng(1).random((5, 4, 3)))
     hg = {"type": "henyey_greenstein", "g": 0.8}
     base = {"name": "sea", "type": "ocean", "surface": {"kind": "flat", "z": 0.0}}
@@ -507,6 +508,11 @@ def test_profile_and_grid_scenes_import_and_export_back(empty, tmp_path):
             "base": {"iops": {"absorption": [0.3, 0.06, 0.02], "b": [0.05, 0.05, 0.05], "phase": PETZOLD}},
             "unit": {"iops": {"absorption": [0.1, 0.2, 0.4], "b": [2.0, 2.0, 2.0], "phase": PETZOLD}},
             "origin": [-8.0, -4.0, -2.0], "size": [16.0, 8.0, 2.0], "file": str(tmp_path / "g.npz")}}}
+    # a grid over a depth profile: Depth Profile + 3-D Grid (a layer table and the grid)
+    waters["profile grid"] = {**base, "iop_grid": {
+        "base": {"iop_profile": waters["profile"]["iop_profile"]},
+        "unit": {"iops": {"absorption": [0.1, 0.2, 0.4], "b": [2.0, 2.0, 2.0], "phase": hg}},
+        "origin": [-8.0, -4.0, -2.0], "size": [16.0, 8.0, 2.0], "file": str(tmp_path / "g.npz")}}
     for kind, water in waters.items():
         bpy.ops.wm.read_homefile(use_empty=True)
         d = {"photic_scene": 1, "name": kind, "water": [water], "bands": [
@@ -516,7 +522,7 @@ def test_profile_and_grid_scenes_import_and_export_back(empty, tmp_path):
              "sky": {"type": "uniform", "radiance": [0.1, 0.1, 0.1]},
              "cameras": [{"name": "cam", "type": "perspective", "position": [0, -5, 3], "look_at": [0, 0, 0], "fov_deg": 40,
                           "resolution": [8, 8]}]}
-        src = tmp_path / f"{kind}.json"
+        src = tmp_path / f"{kind.replace(' ', '_')}.json"
         src.write_text(json.dumps(d))
         assert bpy.ops.photic.import_scene(filepath=str(src)) == {"FINISHED"}
         _, exported = export_water()
@@ -533,14 +539,6 @@ def test_refused_import_says_why(empty, tmp_path):
     from photic_blender.importer import import_scene
     with pytest.raises(ValueError, match="water 'sea'.*inline.*numpy.savez"):
         import_scene(Scene.from_dict(d), empty)
-    # a grid over a depth profile: a Blender water object has a profile or a grid
-    np.savez(tmp_path / "g.npz", density=np.ones((1, 1, 1)))
-    g = d["water"][0]["iop_grid"]
-    del g["density"]
-    g["file"] = "g.npz"
-    g["base"] = {"iop_profile": {"z_top": [0.0, -1.0], "layers": [{"iops": {"absorption": [0.1]}}] * 2}}
-    with pytest.raises(ValueError, match="water 'sea'.*depth profile"):
-        import_scene(Scene.from_dict(d, base_dir=tmp_path), empty)
 
 
 class FakeLayout:
@@ -568,7 +566,8 @@ def test_iop_variation_panel_draws_every_property_it_names(empty):
     context = SimpleNamespace(engine="PHOTIC", scene=empty, object=sea)
     cases = [("PROFILE", "CHLOROPHYLL", "VALUES", "petzold"), ("PROFILE", "TABLE", "VALUES", "petzold"),
              ("GRID", "CHLOROPHYLL", "MODEL", "petzold"), ("GRID", "TABLE", "VALUES", "henyey_greenstein"),
-             ("GRID", "TABLE", "VALUES", "fournier_forand"), ("NONE", "TABLE", "VALUES", "petzold")]
+             ("GRID", "TABLE", "VALUES", "fournier_forand"), ("NONE", "TABLE", "VALUES", "petzold"),
+             ("PROFILE_GRID", "CHLOROPHYLL", "VALUES", "petzold")]
     for variation, kind, unit, phase in cases:
         p.iop_variation, p.profile_kind, p.unit_source, p.unit_phase_function = variation, kind, unit, phase
         assert ui.PHOTIC_PT_iop_variation.poll(context)
@@ -576,6 +575,10 @@ def test_iop_variation_panel_draws_every_property_it_names(empty):
     for name in ("chl_peak", "chl_absorption_file", "profile_table_text", "grid_file", "grid_box",
                  "unit_model", "unit_hg_g", "unit_ff_backscatter"):
         assert name in shown, name
+    both = []  # a profile under a grid: both sections
+    p.iop_variation, p.profile_kind = "PROFILE_GRID", "TABLE"
+    ui.PHOTIC_PT_iop_variation.draw(SimpleNamespace(layout=FakeLayout(both)), context)
+    assert "profile_table_text" in both and "grid_box" in both and "unit_source" in both
     p.role = "RADIOMETER"
     assert not ui.PHOTIC_PT_iop_variation.poll(context)
 
