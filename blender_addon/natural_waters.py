@@ -399,7 +399,6 @@ def read_volumes(scene) -> list:
         # (the key after the read: it evaluated the depsgraph, which updates matrix_world)
         key = _volume_key(box, scene.frame_current)
         _VOLUME_CACHE[key] = got
-        got = _VOLUME_CACHE[key]
         done.append((obj.name, box.name, got if isinstance(got, ExportError) else got[0].shape))
     return done
 
