@@ -17,7 +17,8 @@ renderer's own time (building the grid and rendering, not reading and validating
 ``--mixed`` also renders each grid's water mixed evenly (homogeneous water of the grid's mean
 IOPs, base + mean(rho) x unit, with the grid's components) and compares the grid with it: the
 homogeneous render that differs from the grid's in the grid alone (the plume's extra
-scattering and phase functions are in both). ``--bands N`` renders N bands with the same IOPs in each (one geometric path serves them all,
+scattering and phase functions are in both).
+``--bands N`` renders N bands with the same IOPs in each (one geometric path serves them all,
 as in spectral scenes). ``--what example`` renders the sediment-plume example's scene instead
 (``example_blends/make_examples.py``: shore, 10 bands, Case-2 IOP models, a camera above the sea
 at 160 x 90 and 16 spp, 5 radiometers above the water at 1e5 samples) with its plume resampled
@@ -40,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from photic.render import render
-from photic.scene import IOPGrid, IOPs, ScatteringComponent, Scene
+from photic.scene import IOPGrid, IOPProfile, IOPs, ScatteringComponent, Scene
 
 HG = {"type": "henyey_greenstein", "g": 0.9}
 MIXED = ", mixed"  # the name of a grid's water mixed evenly (--mixed)
@@ -138,13 +139,17 @@ def homogenised(sc: Scene) -> Scene:
     everywhere, with the grid's components (phase functions). The same IOP model and, on
     average, the same scattering as the grid: the homogeneous render that differs from the
     grid's in the grid alone."""
+    def mixed(base: IOPs, unit: IOPs, m: float) -> IOPs:
+        return IOPs(base.absorption + m * unit.absorption,
+                    [ScatteringComponent(cb.b + m * cu.b, cb.phase)
+                     for cb, cu in zip(base.scattering, unit.scattering)])
+
     for w in sc.water:
         g = w.iops
         if isinstance(g, IOPGrid):
             m = float(np.mean(g.density, dtype=np.float64))
-            w.iops = IOPs(g.iops.absorption + m * g.unit.absorption,
-                          [ScatteringComponent(cb.b + m * cu.b, cb.phase)
-                           for cb, cu in zip(g.iops.scattering, g.unit.scattering)])
+            w.iops = (IOPProfile(g.iops.z_top, [mixed(x, g.unit, m) for x in g.iops.layers])
+                      if isinstance(g.iops, IOPProfile) else mixed(g.iops, g.unit, m))
     return sc
 
 
