@@ -40,9 +40,10 @@ def _grid_of(volume_obj, depsgraph, name: str):
         raise VolumeGridError(f"Volume '{volume_obj.name}' has no grid '{name}' (it has: "
                               f"{', '.join(names) or 'none'}{'' if names else '; is its file found?'})")
     grid = grids[names.index(name)]
-    if grid.data_type not in ("FLOAT", "DOUBLE"):
+    if grid.data_type != "FLOAT":  # (what the sampling nodes read as they are set up)
         raise VolumeGridError(f"grid '{name}' of Volume '{volume_obj.name}' holds "
-                              f"{grid.data_type.lower()} values: a density is one float per voxel")
+                              f"{grid.data_type.lower()} values: a density is one float per voxel "
+                              f"(save it as a float grid)")
     return ev, np.array(grid.matrix_object, dtype=np.float64)
 
 
