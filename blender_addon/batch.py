@@ -88,7 +88,8 @@ def render_blend(path, frame: int | None = None, out_dir=None, samples: int | No
     settings.exr_codec = "ZIP"
     scene.render.use_file_extension = True
     scene.render.filepath = str(out_dir / f"{path.stem}_####")
-    natural_waters.read_volumes(scene)  # Volume grids: read here, on the main thread
+    # Volume grids, on the main thread (loading the file read them at its own frame)
+    natural_waters.read_volumes(scene, force=False)
     final_render.LAST_RENDER.clear()
     final_render.PROGRESS_HOOK = progress
     try:

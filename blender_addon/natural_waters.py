@@ -371,16 +371,20 @@ def _volume_key(box, frame: int) -> tuple:
 _VOLUME_CACHE: dict = {}  # key -> (density, lo, hi) or ExportError: the last reads, main thread
 
 
-def read_volumes(scene) -> list:
+def read_volumes(scene, force: bool = True) -> list:
     """Reads, on Blender's main thread, the 'density' grid of every Volume that a water object
     of ``scene`` (original) takes its grid from, into the cache that ``volume_density`` answers
     from. Before the export walks the depsgraph: the read adds and removes a temporary object
     and re-evaluates. Elsewhere (an F12 render's thread) it does nothing: the last read stands.
+    A Volume shared by several water objects is read once; ``force=False`` keeps a read whose
+    key (data, file, frame, transform, modifiers) still matches (right after loading a file).
     Returns what was read: per Volume (water object, Volume, voxel counts or the ExportError)."""
     from . import volume_grid
     done = []
     if not volume_grid.on_main_thread():
         return done
+    bpy.context.evaluated_depsgraph_get()  # (evaluated: the objects' matrix_world are current)
+    this_call: dict = {}
     for obj in scene.objects:
         p = getattr(obj, "photic", None)
         if (p is None or p.role not in WATER_ROLES or p.iop_variation not in ("GRID", "PROFILE_GRID")
@@ -389,16 +393,17 @@ def read_volumes(scene) -> list:
         box = p.grid_box
         if box is None or box.type != "VOLUME":
             continue  # volume_density names the problem
-        while len(_VOLUME_CACHE) >= 4:  # fields can be large: the latest few
-            _VOLUME_CACHE.pop(next(iter(_VOLUME_CACHE)))
-        try:
-            raw, index_to_world, i0 = volume_grid.read_volume_grid(box, "density")
-            got = _volume_field(_obj(obj.name), box, raw, index_to_world, i0)
-        except volume_grid.VolumeGridError as exc:
-            got = ExportError(_obj(obj.name), P_GRID_BOX, str(exc))
-        # (the key after the read: it evaluated the depsgraph, which updates matrix_world)
         key = _volume_key(box, scene.frame_current)
-        _VOLUME_CACHE[key] = got
+        got = this_call.get(key, None if force else _VOLUME_CACHE.get(key))
+        if got is None:
+            try:
+                raw, index_to_world, i0 = volume_grid.read_volume_grid(box, "density")
+                got = _volume_field(_obj(obj.name), box, raw, index_to_world, i0)
+            except volume_grid.VolumeGridError as exc:
+                got = ExportError(_obj(obj.name), P_GRID_BOX, str(exc))
+            while len(_VOLUME_CACHE) >= 4:  # fields can be large: the latest few
+                _VOLUME_CACHE.pop(next(iter(_VOLUME_CACHE)))
+            _VOLUME_CACHE[key] = this_call[key] = got
         done.append((obj.name, box.name, got if isinstance(got, ExportError) else got[0].shape))
     return done
 

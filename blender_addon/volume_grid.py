@@ -74,7 +74,7 @@ def _sampler_tree(volume_obj, name: str, i0, shape) -> bpy.types.NodeTree:
     tree = bpy.data.node_groups.new("Photic Volume Sampler", "GeometryNodeTree")
     tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
     out = _node(tree, "NodeGroupOutput")
-    nx, ny, nz = (int(s) for s in shape)
+    nx, ny, nz = shape
     link = tree.links.new
     points = _node(tree, "GeometryNodePoints")
     points.inputs["Count"].default_value = nx * ny * nz
@@ -124,10 +124,11 @@ def read_volume_grid(volume_obj, name: str = "density"):
     ev, to_object = _grid_of(volume_obj, depsgraph, name)
     corners = np.array([tuple(c) for c in ev.bound_box], dtype=np.float64)
     i0, i1 = index_box(corners, to_object)
-    shape = i1 - i0 + 1
-    if int(np.prod(shape)) > MAX_VOXELS:
+    shape = tuple(int(s) for s in i1 - i0 + 1)
+    n = int(np.prod(shape))
+    if n > MAX_VOXELS:
         raise VolumeGridError(f"grid '{name}' of Volume '{volume_obj.name}' spans "
-                              f"{' x '.join(str(int(s)) for s in shape)} voxels, more than "
+                              f"{' x '.join(map(str, shape))} voxels, more than "
                               f"{MAX_VOXELS:,} (save it at a coarser voxel size)")
     tree = _sampler_tree(volume_obj, name, i0, shape)
     mesh = bpy.data.meshes.new("Photic Volume Sampler")
@@ -140,7 +141,6 @@ def read_volume_grid(volume_obj, name: str = "density"):
         depsgraph = bpy.context.evaluated_depsgraph_get()
         depsgraph.update()
         ev_mesh = obj.evaluated_get(depsgraph).data
-        n = int(np.prod(shape))
         attr = ev_mesh.attributes.get("photic_density")
         if attr is None or len(ev_mesh.vertices) != n:
             raise VolumeGridError(f"geometry nodes did not sample grid '{name}' of Volume "
@@ -152,4 +152,4 @@ def read_volume_grid(volume_obj, name: str = "density"):
         bpy.data.meshes.remove(mesh)
         bpy.data.node_groups.remove(tree)
     index_to_world = np.array(volume_obj.matrix_world, dtype=np.float64) @ to_object
-    return values.reshape(tuple(int(s) for s in shape)), index_to_world, i0
+    return values.reshape(shape), index_to_world, i0
