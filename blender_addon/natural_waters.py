@@ -447,8 +447,9 @@ def volume_density(ex, owner: str, box):
                                             f"voxels are read through geometry nodes on Blender's "
                                             f"main thread, not in an F12 render's: press 'Read "
                                             f"Volume Grids' in the water's Photic panel (again "
-                                            f"after changing the Volume), or render from the "
-                                            f"command line")
+                                            f"after changing the Volume or the frame), or "
+                                            f"render from the command line (blender -b FILE -f "
+                                            f"N or -a, photic blend), which reads every frame")
 
 
 @persistent
@@ -462,11 +463,35 @@ def _read_volumes_on_load(*_args):
         print(f"Photic: reading Volume grids after loading failed: {exc}")
 
 
+@persistent
+def _read_volumes_before_render(scene, *_args):
+    """Before each frame a render draws (render_pre): the water objects' Volume grids at that
+    frame, where the handler runs on the main thread -- renders from the command line
+    (``blender -b file.blend -f N`` or ``-a``) and ``bpy.ops.render.render`` in scripts -- so
+    that every frame of an animation finds its grids (a read still current is kept). An F12
+    render in the interface calls it from its own thread, where reading does nothing. Never
+    raises: the export names what failed."""
+    if scene.render.engine != "PHOTIC":
+        return
+    try:
+        read_volumes(scene, force=False)
+    except Exception as exc:  # noqa: BLE001  (a handler must not break the render)
+        print(f"Photic: reading Volume grids before rendering frame {scene.frame_current} "
+              f"failed: {exc}")
+
+
+_HANDLERS = (("load_post", _read_volumes_on_load), ("render_pre", _read_volumes_before_render))
+
+
 def register():
-    if _read_volumes_on_load not in bpy.app.handlers.load_post:
-        bpy.app.handlers.load_post.append(_read_volumes_on_load)
+    for event, handler in _HANDLERS:
+        handlers = getattr(bpy.app.handlers, event)
+        if handler not in handlers:
+            handlers.append(handler)
 
 
 def unregister():
-    if _read_volumes_on_load in bpy.app.handlers.load_post:
-        bpy.app.handlers.load_post.remove(_read_volumes_on_load)
+    for event, handler in _HANDLERS:
+        handlers = getattr(bpy.app.handlers, event)
+        if handler in handlers:
+            handlers.remove(handler)

@@ -474,6 +474,48 @@ def test_volume_grids_are_read_when_a_file_is_opened(empty, tmp_path):
     assert int((np.asarray(scene.water[0].iops.density) > 1.0).sum()) == 7 * 3 * 3
 
 
+def test_volume_grids_are_read_for_every_frame_of_an_animation(empty, tmp_path):
+    """An animation rendered on Blender's main thread (``bpy.ops.render.render(animation=True)``,
+    as ``blender -b file.blend -a`` renders): a render_pre handler reads the Volume at each
+    frame. The turbid slab is keyframed under one radiometer at frame 1 and under the other at
+    frame 2, and each frame's radiometers see it where it is then (nothing was read before)."""
+    from photic_blender import natural_waters
+    sea = grid_sea(tmp_path)
+    sea.photic.unit_absorption_bands, sea.photic.unit_scattering = "0.05", 5.0
+    vol = volume_with_cube_grid(size=(4.0, 8.0, 4.0), voxel=0.5, density=1.0)
+    for frame, x in ((1, 2.0), (2, -2.0)):  # x from 0 to 4 m, then from -4 to 0 m; 0 to 4 m deep
+        vol.location = (x, 0.0, -2.0)
+        vol.keyframe_insert("location", frame=frame)
+    empty.frame_set(1)  # (the animation's place, not the last one set)
+    sea.photic.grid_source, sea.photic.grid_box = "VOLUME", vol
+    sun = link(bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN")))
+    sun.rotation_euler = (math.radians(30), 0.0, 0.0)
+    for name, x in (("Lu_east", 2.0), ("Lu_west", -2.0)):
+        r = link(bpy.data.objects.new(name, None))
+        r.location = (x, 0.0, 0.5)
+        r.photic.role, r.photic.quantity = "RADIOMETER", "radiance"
+    empty.photic.samples, empty.photic.radiometer_samples = 1, 4000
+    empty.frame_start, empty.frame_end = 1, 2
+    empty.render.filepath = str(tmp_path / "frame_")
+    natural_waters._VOLUME_CACHE.clear()
+    seen = {}
+
+    def keep(scene, *_args):  # each frame's radiometers, after its render
+        err = final_render.LAST_RENDER.get("error")
+        rows = final_render.LAST_RADIOMETERS[scene.name]["rows"]
+        seen[scene.frame_current] = err or {r["name"]: np.array(r["value"]) for r in rows}
+
+    final_render.LAST_RENDER.clear()
+    bpy.app.handlers.render_post.append(keep)
+    try:
+        bpy.ops.render.render(animation=True)
+    finally:
+        bpy.app.handlers.render_post.remove(keep)
+    assert sorted(seen) == [1, 2], seen
+    (east1, west1), (east2, west2) = ((seen[f]["Lu_east"], seen[f]["Lu_west"]) for f in (1, 2))
+    assert np.all(east1 > 3 * west1) and np.all(west2 > 3 * east2), seen
+
+
 def test_volume_without_density_grid_names_the_volume(empty, tmp_path):
     from photic_blender import natural_waters
     sea = grid_sea(tmp_path)
