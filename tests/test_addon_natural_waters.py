@@ -516,6 +516,50 @@ def test_volume_grids_are_read_for_every_frame_of_an_animation(empty, tmp_path):
     assert np.all(east1 > 3 * west1) and np.all(west2 > 3 * east2), seen
 
 
+def bake_to_vdb(vol, directory: Path) -> Path:
+    """Bakes a Volume's geometry-node grids to disk (a Bake node before the group's output):
+    Blender writes them as a .vdb file, whose path is returned."""
+    mod = vol.modifiers[0]
+    tree = mod.node_group
+    out = next(n for n in tree.nodes if n.bl_idname == "NodeGroupOutput")
+    made = out.inputs[0].links[0].from_socket
+    bake = tree.nodes.new("GeometryNodeBake")
+    bake.bake_items.new("GEOMETRY", "Geometry")
+    tree.links.new(made, bake.inputs[0])
+    tree.links.new(bake.outputs[0], out.inputs[0])
+    mod.bake_target, mod.bake_directory = "DISK", str(directory)
+    mod.bakes[0].bake_mode = "STILL"
+    with bpy.context.temp_override(object=vol, active_object=vol):
+        bpy.ops.object.geometry_node_bake_single(session_uid=vol.session_uid, modifier_name=mod.name,
+                                                 bake_id=mod.bakes[0].bake_id)
+    vdb, = directory.rglob("*.vdb")
+    return vdb
+
+
+def test_volume_reading_a_vdb_file_gives_the_grid_written(empty, tmp_path):
+    """A Volume object that reads a .vdb file (Blender's bake of the cube grid above, moved)
+    exports the same densities, box and voxels as the Volume whose geometry nodes made it."""
+    from photic_blender import natural_waters
+    sea = grid_sea(tmp_path)
+    made = volume_with_cube_grid(offset=(0.5, 0.0, 0.0))
+    vdb = bake_to_vdb(made, tmp_path / "bake")
+    filed = link(bpy.data.objects.new("From File", bpy.data.volumes.new("From File")))
+    filed.data.filepath = str(vdb)
+    grids = []
+    for box in (made, filed):
+        box.location = (1.0, 2.0, -3.0)
+        sea.photic.grid_source, sea.photic.grid_box = "VOLUME", box
+        (water, volume, shape), = natural_waters.read_volumes(bpy.context.scene)
+        assert volume == box.name and isinstance(shape, tuple), shape
+        g = export.export_scene(bpy.context.evaluated_depsgraph_get(), photic)[0].water[0].iops
+        grids.append((np.asarray(g.density), np.asarray(g.origin), np.asarray(g.size)))
+    (d0, o0, s0), (d1, o1, s1) = grids
+    assert int((d0 > 1.0).sum()) == 7 * 3 * 3
+    np.testing.assert_array_equal(d1, d0)
+    np.testing.assert_allclose(o1, o0, atol=1e-6)
+    np.testing.assert_allclose(s1, s0, atol=1e-6)
+
+
 def test_volume_without_density_grid_names_the_volume(empty, tmp_path):
     from photic_blender import natural_waters
     sea = grid_sea(tmp_path)
