@@ -352,11 +352,13 @@ def grid_box(ex, owner: str, box, bounds) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
-def _volume_key(box, frame: int) -> tuple:
+def _volume_key(box, frame: int, depsgraph) -> tuple:
     """What a cached read of a Volume's grid depends on, as far as can be seen without reading
     it: the object and its data, the data's file (path, size, time), the frame, the object's
-    transform and modifiers (not their inputs)."""
+    transform (as ``depsgraph`` evaluates it: a render's own depsgraph has it at the frame
+    rendered) and modifiers (not their inputs)."""
     volume = box.data
+    matrix = box.evaluated_get(depsgraph).matrix_world
     path = bpy.path.abspath(volume.filepath, library=volume.library) if volume.filepath else ""
     try:
         st = os.stat(path) if path else None
@@ -364,26 +366,49 @@ def _volume_key(box, frame: int) -> tuple:
         st = None
     file = (path, st.st_size, st.st_mtime_ns) if st else (path,)
     # (session_uid: the same data-blocks, not others of the same names in a file opened since)
-    return (box.session_uid, volume.session_uid, frame, file, tuple(map(tuple, box.matrix_world)),
+    return (box.session_uid, volume.session_uid, frame, file, tuple(map(tuple, matrix)),
             tuple(box.modifiers.keys()))
 
 
-_VOLUME_CACHE: dict = {}  # key -> (density, lo, hi) or ExportError: the last reads, main thread
+# key -> (density, lo, hi) or ExportError: the reads made on the main thread, the newest last.
+# Kept: the last 4, and older ones while all together hold at most VOLUME_CACHE_BYTES of
+# densities (an animation read frame by frame); equal densities are stored once.
+_VOLUME_CACHE: dict = {}
+VOLUME_CACHE_BYTES = 2 << 30
 
 
-def read_volumes(scene, force: bool = True) -> list:
+def _cache_bytes() -> int:
+    arrays = {id(v[0]): v[0].nbytes for v in _VOLUME_CACHE.values() if isinstance(v, tuple)}
+    return sum(arrays.values())
+
+
+def _cache_put(key, got):
+    if isinstance(got, tuple):  # the same densities as a read kept (a Volume still in time)
+        d = got[0]
+        for other in _VOLUME_CACHE.values():
+            if isinstance(other, tuple) and other[0].shape == d.shape and np.array_equal(other[0], d):
+                got = (other[0],) + tuple(got[1:])
+                break
+    _VOLUME_CACHE.pop(key, None)
+    _VOLUME_CACHE[key] = got
+    while len(_VOLUME_CACHE) > 4 and _cache_bytes() > VOLUME_CACHE_BYTES:
+        _VOLUME_CACHE.pop(next(iter(_VOLUME_CACHE)))
+
+
+def read_volumes(scene, force: bool = True, keys: list | None = None) -> list:
     """Reads, on Blender's main thread, the 'density' grid of every Volume that a water object
     of ``scene`` (original) takes its grid from, into the cache that ``volume_density`` answers
     from. Before the export walks the depsgraph: the read adds and removes a temporary object
     and re-evaluates. Elsewhere (an F12 render's thread) it does nothing: the last read stands.
     A Volume shared by several water objects is read once; ``force=False`` keeps a read whose
     key (data, file, frame, transform, modifiers) still matches (right after loading a file).
-    Returns what was read: per Volume (water object, Volume, voxel counts or the ExportError)."""
+    Returns what was read: per Volume (water object, Volume, voxel counts or the ExportError);
+    ``keys`` gets the cache keys of the reads made or kept."""
     from . import volume_grid
     done = []
     if not volume_grid.on_main_thread():
         return done
-    bpy.context.evaluated_depsgraph_get()  # (evaluated: the objects' matrix_world are current)
+    depsgraph = bpy.context.evaluated_depsgraph_get()  # (evaluated: transforms are current)
     this_call: dict = {}
     for obj in scene.objects:
         p = getattr(obj, "photic", None)
@@ -393,19 +418,47 @@ def read_volumes(scene, force: bool = True) -> list:
         box = p.grid_box
         if box is None or box.type != "VOLUME":
             continue  # volume_density names the problem
-        key = _volume_key(box, scene.frame_current)
+        key = _volume_key(box, scene.frame_current, depsgraph)
         got = this_call.get(key, None if force else _VOLUME_CACHE.get(key))
+        if got is not None and key in _VOLUME_CACHE:
+            _VOLUME_CACHE[key] = _VOLUME_CACHE.pop(key)  # (used again: kept longest)
         if got is None:
             try:
                 raw, index_to_world, i0 = volume_grid.read_volume_grid(box, "density")
                 got = _volume_field(_obj(obj.name), box, raw, index_to_world, i0)
             except volume_grid.VolumeGridError as exc:
                 got = ExportError(_obj(obj.name), P_GRID_BOX, str(exc))
-            while len(_VOLUME_CACHE) >= 4:  # fields can be large: the latest few
-                _VOLUME_CACHE.pop(next(iter(_VOLUME_CACHE)))
-            _VOLUME_CACHE[key] = this_call[key] = got
+            _cache_put(key, got)
+            this_call[key] = got
         done.append((obj.name, box.name, got if isinstance(got, ExportError) else got[0].shape))
+        if keys is not None:
+            keys.append(key)
     return done
+
+
+def read_volumes_over_frames(scene, frames, progress=None) -> tuple[list, str | None]:
+    """``read_volumes`` at each of ``frames`` (main thread; the scene goes back to its frame
+    after), so that a render in Blender's interface of those frames (Ctrl+F12), which cannot
+    read, finds each frame's grids. Returns what was read and None, or an error message when
+    the frames' densities do not fit in what the cache keeps (VOLUME_CACHE_BYTES; a Volume
+    unchanged from frame to frame is kept once). ``progress(done, total)`` after each frame."""
+    start, keys, done = scene.frame_current, [], []
+    frames = list(frames)
+    try:
+        for i, frame in enumerate(frames):
+            scene.frame_set(frame)
+            done += read_volumes(scene, force=False, keys=keys)
+            if progress is not None:
+                progress(i + 1, len(frames))
+    finally:
+        scene.frame_set(start)
+    if any(k not in _VOLUME_CACHE for k in keys):
+        gb = VOLUME_CACHE_BYTES / 2 ** 30
+        return done, (f"the Volume grids of frames {frames[0]}-{frames[-1]} need more than the "
+                      f"{gb:g} GB kept for them: render the animation from the command line "
+                      f"(blender -b FILE -a, or photic blend per frame), which reads each frame "
+                      f"as it renders it")
+    return done, None
 
 
 def _volume_field(owner: str, box, raw, index_to_world, i0):
@@ -437,7 +490,7 @@ def volume_density(ex, owner: str, box):
         name = f"Object '{box.name}' is a {box.type.lower()}" if box is not None else "it is empty"
         raise ExportError(owner, P_GRID_BOX, f"'Volume Object' reads a Volume object's grid, "
                                              f"but {name}: choose a Volume object")
-    got = _VOLUME_CACHE.get(_volume_key(box, ex.bscene.frame_current))
+    got = _VOLUME_CACHE.get(_volume_key(box, ex.bscene.frame_current, ex.dg))
     if isinstance(got, ExportError):
         raise ExportError(owner, got.prop, got.message)
     if got is not None:

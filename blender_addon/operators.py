@@ -45,16 +45,35 @@ class PHOTIC_OT_export_scene(bpy.types.Operator):
 
 class PHOTIC_OT_read_volume_grids(bpy.types.Operator):
     """Read the 'density' grids of the Volume objects that water objects take their IOP grid
-    from (at the current frame), for renders started with F12: Blender's main thread reads a
-    Volume's voxels, not a render's"""
+    from (at the current frame, or at every frame of the scene's range), for renders started
+    with F12 or Ctrl+F12: Blender's main thread reads a Volume's voxels, not a render's"""
 
     bl_idname = "photic.read_volume_grids"
     bl_label = "Read Volume Grids"
     bl_options = {"REGISTER"}
 
+    every_frame: bpy.props.BoolProperty(
+        name="Every Frame", default=False,
+        description="Read the grids at every frame of the scene's frame range (for animations "
+                    "rendered with Ctrl+F12), not only at the current frame")
+
     def execute(self, context):
-        done = natural_waters.read_volumes(context.scene)
-        errors = [str(got) for _, _, got in done if isinstance(got, ExportError)]
+        scene = context.scene
+        if self.every_frame:
+            wm = context.window_manager
+            frames = range(scene.frame_start, scene.frame_end + 1, max(1, scene.frame_step))
+            wm.progress_begin(0, len(frames))
+            try:
+                done, problem = natural_waters.read_volumes_over_frames(
+                    scene, frames, lambda i, n: wm.progress_update(i))
+            finally:
+                wm.progress_end()
+            if problem:
+                self.report({"ERROR"}, "Photic: " + problem)
+                return {"CANCELLED"}
+        else:
+            done = natural_waters.read_volumes(scene)
+        errors = sorted({str(got) for _, _, got in done if isinstance(got, ExportError)})
         for e in errors:
             self.report({"ERROR"}, e)
         if errors:
@@ -62,8 +81,11 @@ class PHOTIC_OT_read_volume_grids(bpy.types.Operator):
         if not done:
             self.report({"WARNING"}, "Photic: no water object takes its IOP grid from a Volume")
             return {"CANCELLED"}
-        self.report({"INFO"}, "Photic: read " + ", ".join(
-            f"Volume '{vol}' ({' x '.join(map(str, shape))} voxels) for '{water}'" for water, vol, shape in done))
+        read = dict.fromkeys(f"Volume '{vol}' ({' x '.join(map(str, shape))} voxels) for '{water}'"
+                             for water, vol, shape in done)
+        where = (f" at frames {scene.frame_start}-{scene.frame_end}" if self.every_frame
+                 else f" at frame {scene.frame_current}")
+        self.report({"INFO"}, "Photic: read " + ", ".join(read) + where)
         return {"FINISHED"}
 
 

@@ -253,8 +253,9 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
                ("VOLUME", "Volume Object", "The 'density' grid of the Grid Box's Volume "
                                            "object (a .vdb or its geometry nodes, at the "
                                            "current frame) over its voxels' box; read through "
-                                           "geometry nodes before command-line renders, and by "
-                                           "'Read Volume Grids' for F12 renders")],
+                                           "geometry nodes before command-line renders and "
+                                           "each frame they render, and by 'Read Volume Grids' "
+                                           "for F12 renders ('Every Frame': Ctrl+F12)")],
         description="Where the density field comes from")
     grid_file: StringProperty(
         options=_BLEND_RELATIVE, name="Density File", subtype="FILE_PATH",

@@ -228,7 +228,9 @@ class PHOTIC_PT_iop_variation(PhoticPanel, bpy.types.Panel):
                 layout.prop(p, "grid_file")
             layout.prop(p, "grid_box")
             if p.grid_source == "VOLUME":
-                layout.operator("photic.read_volume_grids", icon="FILE_REFRESH")
+                row = layout.row(align=True)
+                row.operator("photic.read_volume_grids", icon="FILE_REFRESH")
+                row.operator("photic.read_volume_grids", text="Every Frame").every_frame = True
             layout.prop(p, "unit_source")
             if p.unit_source == "MODEL":
                 layout.prop(p, "unit_model")

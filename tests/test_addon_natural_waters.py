@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -474,12 +475,9 @@ def test_volume_grids_are_read_when_a_file_is_opened(empty, tmp_path):
     assert int((np.asarray(scene.water[0].iops.density) > 1.0).sum()) == 7 * 3 * 3
 
 
-def test_volume_grids_are_read_for_every_frame_of_an_animation(empty, tmp_path):
-    """An animation rendered on Blender's main thread (``bpy.ops.render.render(animation=True)``,
-    as ``blender -b file.blend -a`` renders): a render_pre handler reads the Volume at each
-    frame. The turbid slab is keyframed under one radiometer at frame 1 and under the other at
-    frame 2, and each frame's radiometers see it where it is then (nothing was read before)."""
-    from photic_blender import natural_waters
+def moving_slab(empty, tmp_path, frames=2):
+    """A turbid slab (a Volume's grid) keyframed under the radiometer Lu_east at frame 1 and
+    under Lu_west from frame 2 on; the scene's range is frames 1 to ``frames``."""
     sea = grid_sea(tmp_path)
     sea.photic.unit_absorption_bands, sea.photic.unit_scattering = "0.05", 5.0
     vol = volume_with_cube_grid(size=(4.0, 8.0, 4.0), voxel=0.5, density=1.0)
@@ -495,9 +493,12 @@ def test_volume_grids_are_read_for_every_frame_of_an_animation(empty, tmp_path):
         r.location = (x, 0.0, 0.5)
         r.photic.role, r.photic.quantity = "RADIOMETER", "radiance"
     empty.photic.samples, empty.photic.radiometer_samples = 1, 4000
-    empty.frame_start, empty.frame_end = 1, 2
+    empty.frame_start, empty.frame_end = 1, frames
     empty.render.filepath = str(tmp_path / "frame_")
-    natural_waters._VOLUME_CACHE.clear()
+
+
+def render_animation() -> dict:
+    """bpy.ops.render.render(animation=True): per frame its radiometers' values, or the error."""
     seen = {}
 
     def keep(scene, *_args):  # each frame's radiometers, after its render
@@ -511,9 +512,52 @@ def test_volume_grids_are_read_for_every_frame_of_an_animation(empty, tmp_path):
         bpy.ops.render.render(animation=True)
     finally:
         bpy.app.handlers.render_post.remove(keep)
+    return seen
+
+
+def assert_slab_followed(seen):
     assert sorted(seen) == [1, 2], seen
     (east1, west1), (east2, west2) = ((seen[f]["Lu_east"], seen[f]["Lu_west"]) for f in (1, 2))
     assert np.all(east1 > 3 * west1) and np.all(west2 > 3 * east2), seen
+
+
+def test_volume_grids_are_read_for_every_frame_of_an_animation(empty, tmp_path):
+    """An animation rendered on Blender's main thread (``bpy.ops.render.render(animation=True)``,
+    as ``blender -b file.blend -a`` renders): a render_pre handler reads the Volume at each
+    frame. Each frame's radiometers see the keyframed slab where it is then (nothing was read
+    before)."""
+    from photic_blender import natural_waters
+    moving_slab(empty, tmp_path)
+    natural_waters._VOLUME_CACHE.clear()
+    assert_slab_followed(render_animation())
+
+
+def test_every_frame_read_serves_an_animation_rendered_off_the_main_thread(empty, tmp_path,
+                                                                         monkeypatch):
+    """Ctrl+F12 in Blender's interface renders in a thread of its own, where a Volume cannot be
+    read: 'Read Volume Grids' > 'Every Frame' reads every frame of the range beforehand (the
+    scene back at its frame after; the slab's densities, the same at every frame, kept once),
+    and the animation rendered with reading switched off, as in that thread, follows the slab.
+    Without that read it stops at the first frame with the error naming the button; frames
+    that do not fit in the cache's budget are refused."""
+    from photic_blender import natural_waters, volume_grid
+    moving_slab(empty, tmp_path, frames=2)
+    natural_waters._VOLUME_CACHE.clear()
+    with monkeypatch.context() as m:
+        m.setattr(volume_grid, "on_main_thread", lambda: False)
+        with pytest.raises(RuntimeError, match="frame 1 has not been read.*Read Volume Grids"):
+            bpy.ops.render.render(animation=True)
+    assert bpy.ops.photic.read_volume_grids(every_frame=True) == {"FINISHED"}
+    assert empty.frame_current == 1 and len(natural_waters._VOLUME_CACHE) == 2
+    assert len({id(v[0]) for v in natural_waters._VOLUME_CACHE.values()}) == 1
+    with monkeypatch.context() as m:
+        m.setattr(volume_grid, "on_main_thread", lambda: False)
+        assert_slab_followed(render_animation())
+    empty.frame_end = 6
+    monkeypatch.setattr(natural_waters, "VOLUME_CACHE_BYTES", 1)  # 4 reads kept, not 6
+    with pytest.raises(RuntimeError, match="frames 1-6 need more than"):
+        bpy.ops.photic.read_volume_grids(every_frame=True)
+    assert empty.frame_current == 1
 
 
 def bake_to_vdb(vol, directory: Path) -> Path:
@@ -643,9 +687,12 @@ class FakeLayout:
     def label(self, **kw):
         pass
 
+    def operator(self, idname, **kw):
+        self.shown.append(idname)
+        return SimpleNamespace()
+
 
 def test_iop_variation_panel_draws_every_property_it_names(empty):
-    from types import SimpleNamespace
     sea = add_sea()
     p = sea.photic
     shown = []
@@ -654,12 +701,13 @@ def test_iop_variation_panel_draws_every_property_it_names(empty):
              ("GRID", "CHLOROPHYLL", "MODEL", "petzold"), ("GRID", "TABLE", "VALUES", "henyey_greenstein"),
              ("GRID", "TABLE", "VALUES", "fournier_forand"), ("NONE", "TABLE", "VALUES", "petzold"),
              ("PROFILE_GRID", "CHLOROPHYLL", "VALUES", "petzold")]
-    for variation, kind, unit, phase in cases:
+    for i, (variation, kind, unit, phase) in enumerate(cases):
         p.iop_variation, p.profile_kind, p.unit_source, p.unit_phase_function = variation, kind, unit, phase
+        p.grid_source = "VOLUME" if i == 2 else "NPZ"
         assert ui.PHOTIC_PT_iop_variation.poll(context)
         ui.PHOTIC_PT_iop_variation.draw(SimpleNamespace(layout=FakeLayout(shown)), context)
     for name in ("chl_peak", "chl_absorption_file", "profile_table_text", "grid_file", "grid_box",
-                 "unit_model", "unit_hg_g", "unit_ff_backscatter"):
+                 "unit_model", "unit_hg_g", "unit_ff_backscatter", "photic.read_volume_grids"):
         assert name in shown, name
     both = []  # a profile under a grid: both sections
     p.iop_variation, p.profile_kind = "PROFILE_GRID", "TABLE"
