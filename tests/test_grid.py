@@ -390,16 +390,20 @@ SMALL_SUN = 0.002
 LAYERED_BASE = ([0.0, -1.7, -3.1], [0.05, 0.4, 0.15])  # a depth profile under the grid
 
 
-@pytest.mark.parametrize("field", ["dense 4x5x6", "sparse 37x29x45", "dense 4x5x6 over layers"])
+@pytest.mark.parametrize("field", ["dense 4x5x6", "sparse 37x29x45", "dense 4x5x6 over layers",
+                                   "dense 4x5x6 at optical depths of 30 and more"])
 def test_sun_through_absorbing_3d_field(field):
     """A small sun (0.002 deg) at 35 deg, b = 0, random absorbing densities (in 4 x 5 x 6
-    voxels, or sparse in several bricks; or over a base of three absorbing layers): Ed at
-    three points equals the disk quadrature with the optical depth integrated in numpy along
-    the refracted ray (cut at every voxel face; the layers' in closed form), to 1e-3 (a
-    deterministic estimate: no scattering, one refracted path per sample)."""
+    voxels, or sparse in several bricks; or over a base of three absorbing layers; or 80 times
+    denser: optical depths 36 to 56, Ed 1e-18 to 1e-27): Ed at three points equals the disk
+    quadrature with the optical depth integrated in numpy along the refracted ray (cut at every
+    voxel face; the layers' in closed form), to 1e-3 (a deterministic estimate: no scattering,
+    one refracted path per sample)."""
     import math
     from test_stratified import refracted_sun
     rho = np.random.default_rng(7).random((4, 5, 6)) * 2.0 if field.startswith("dense") else _sparse_field()
+    if field.endswith("and more"):
+        rho *= 80.0
     box = ([-1.5, -2.0, -4.0], [3.0, 4.0, 4.2])   # the top above the surface
     layered = field.endswith("over layers")
     d = absorbing_grid(rho, box, LAYERED_BASE if layered else None)
@@ -431,6 +435,8 @@ def test_sun_through_absorbing_3d_field(field):
         if layered:
             tau = _layered_depth(p[2], *LAYERED_BASE) + 0.3 * dens * length * mu_w
         ref = refracted_sun(35.0, tau, diameter_deg=SMALL_SUN)
+        if field.endswith("and more"):
+            assert tau > 30.0 and ref > 0.0, (tau, ref)
         if field.startswith("sparse") and i < 2:
             assert dens > 0.2  # the ray does cross a blob
         r = res.radiometer(f"Ed_{i}")
