@@ -436,21 +436,29 @@ def test_volume_object_grid_is_read_through_geometry_nodes(empty, tmp_path, sx):
         export.export_scene(bpy.context.evaluated_depsgraph_get(), photic)
 
 
+def sunlit_volume_slab(tmp_path, radiometers):
+    """A sunlit sea whose grid is a Volume's 4 x 8 x 4 m slab of density 1 (unit b = 5 per
+    metre), radiometers looking down at x = +2 m and x = -2 m (named ``radiometers``); returns
+    the Volume, at the origin."""
+    sea = grid_sea(tmp_path)
+    sea.photic.unit_absorption_bands, sea.photic.unit_scattering = "0.05", 5.0
+    vol = volume_with_cube_grid(size=(4.0, 8.0, 4.0), voxel=0.5, density=1.0)
+    sea.photic.grid_source, sea.photic.grid_box = "VOLUME", vol
+    sun = link(bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN")))
+    sun.rotation_euler = (math.radians(30), 0.0, 0.0)
+    for name, x in zip(radiometers, (2.0, -2.0)):
+        r = link(bpy.data.objects.new(name, None))
+        r.location = (x, 0.0, 0.5)
+        r.photic.role, r.photic.quantity = "RADIOMETER", "radiance"
+    return vol
+
+
 def test_volume_grid_scene_renders_through_the_command_line_path(empty, tmp_path):
     """The turbid slab of the F12 test below as a Volume object's grid, rendered by
     ``render_blend`` (``photic blend``), which reads the Volume before the render: a radiometer
     looking down on the slab sees more upwelling light than one over clear water."""
-    sea = grid_sea(tmp_path)
-    sea.photic.unit_absorption_bands, sea.photic.unit_scattering = "0.05", 5.0
-    vol = volume_with_cube_grid(size=(4.0, 8.0, 4.0), voxel=0.5, density=1.0)
+    vol = sunlit_volume_slab(tmp_path, ("Lu_turbid", "Lu_clear"))
     vol.location = (2.0, 0.0, -2.0)  # x from 0 to 4 m, 0 to 4 m deep
-    sea.photic.grid_source, sea.photic.grid_box = "VOLUME", vol
-    sun = link(bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN")))
-    sun.rotation_euler = (math.radians(30), 0.0, 0.0)
-    for name, x in (("Lu_turbid", 2.0), ("Lu_clear", -2.0)):
-        r = link(bpy.data.objects.new(name, None))
-        r.location = (x, 0.0, 0.5)
-        r.photic.role, r.photic.quantity = "RADIOMETER", "radiance"
     empty.photic.samples, empty.photic.radiometer_samples = 2, 4000
     bpy.ops.wm.save_mainfile()
     summary = render_blend(tmp_path / "scene.blend", out_dir=tmp_path / "out")
@@ -478,20 +486,11 @@ def test_volume_grids_are_read_when_a_file_is_opened(empty, tmp_path):
 def moving_slab(empty, tmp_path, frames=2):
     """A turbid slab (a Volume's grid) keyframed under the radiometer Lu_east at frame 1 and
     under Lu_west from frame 2 on; the scene's range is frames 1 to ``frames``."""
-    sea = grid_sea(tmp_path)
-    sea.photic.unit_absorption_bands, sea.photic.unit_scattering = "0.05", 5.0
-    vol = volume_with_cube_grid(size=(4.0, 8.0, 4.0), voxel=0.5, density=1.0)
+    vol = sunlit_volume_slab(tmp_path, ("Lu_east", "Lu_west"))
     for frame, x in ((1, 2.0), (2, -2.0)):  # x from 0 to 4 m, then from -4 to 0 m; 0 to 4 m deep
         vol.location = (x, 0.0, -2.0)
         vol.keyframe_insert("location", frame=frame)
     empty.frame_set(1)  # (the animation's place, not the last one set)
-    sea.photic.grid_source, sea.photic.grid_box = "VOLUME", vol
-    sun = link(bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN")))
-    sun.rotation_euler = (math.radians(30), 0.0, 0.0)
-    for name, x in (("Lu_east", 2.0), ("Lu_west", -2.0)):
-        r = link(bpy.data.objects.new(name, None))
-        r.location = (x, 0.0, 0.5)
-        r.photic.role, r.photic.quantity = "RADIOMETER", "radiance"
     empty.photic.samples, empty.photic.radiometer_samples = 1, 4000
     empty.frame_start, empty.frame_end = 1, frames
     empty.render.filepath = str(tmp_path / "frame_")
