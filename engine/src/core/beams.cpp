@@ -205,7 +205,7 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             if (refract(-sun_dir, Vec3(0, 0, 1), 1.0, w.ior, &centre)) {
                 VoxelGrid::ShadowMap& m = flat_shade;
                 if (!(m.spread == spread && dot(m.up, -centre) >= 1.0 - 1e-12))  // (else built)
-                    w.grid->shadow_map(-centre, spread, &m);
+                    w.grid->shadow_map(-centre, spread, &m, threads);
                 flat_shade_ok.assign(flat_d.size(), 0);
                 for (size_t i = 0; i < flat_d.size(); ++i)
                     flat_shade_ok[i] = dot(m.up, -flat_d[i]) >= std::cos(m.spread);

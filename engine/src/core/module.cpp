@@ -225,7 +225,7 @@ PYBIND11_MODULE(_core, m) {
            "scattering spectrum per component (the components' phase functions are the water's).")
         .def("set_water_grid", [](Scene& s, int water, std::array<double, 3> lo, std::array<double, 3> hi,
                                   py::array_t<float, py::array::c_style | py::array::forcecast> rho,
-                                  DArray a, std::vector<DArray> b) {
+                                  DArray a, std::vector<DArray> b, int threads) {
             if (water < 0 || water >= int(s.waters.size())) throw std::invalid_argument("bad water index");
             Water& w = s.waters[water];
             if (rho.ndim() != 3) throw std::invalid_argument("the density must be an (nx, ny, nz) array");
@@ -251,15 +251,15 @@ PYBIND11_MODULE(_core, m) {
             auto g = std::make_shared<VoxelGrid>();
             {
                 py::gil_scoped_release release;
-                g->build(lo.data(), hi.data(), n, rho.data());  // checks the densities
+                g->build(lo.data(), hi.data(), n, rho.data(), threads);  // checks the densities
             }
             w.grid_unit = unit;
             w.grid = g;
         }, py::arg("water"), py::arg("lo"), py::arg("hi"), py::arg("density"), py::arg("absorption"),
-           py::arg("scattering"),
+           py::arg("scattering"), py::arg("threads") = 0,
            "3-D IOPs of a water body over the box [lo, hi]: per voxel (density[i, j, k], x fastest "
            "varying in i) its IOPs are the base (its layer at that height, if it has several) plus "
-           "density times these unit IOPs.")
+           "density times these unit IOPs. Built on `threads` threads (0: all cores).")
         .def("add_mesh", [](Scene& s, FArray v, UArray t, int kind, int index) {
             if (v.ndim() != 2 || v.shape(1) != 3 || t.ndim() != 2 || t.shape(1) != 3)
                 throw std::invalid_argument("vertices and triangles must be (N, 3) arrays");

@@ -7,8 +7,11 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
+#include <memory>
 #include <stdexcept>
 #include <vector>
+#include "parallel.h"
 #include "vec.h"
 
 namespace photic {
@@ -21,12 +24,25 @@ struct VoxelGrid {
     static constexpr int B = 8;        // voxels per brick edge (a power of 2)
     static constexpr int kShift = 3;   // log2(B)
     static constexpr int kClearCap = 4;  // largest empty-cube radius stored (bricks)
+    static constexpr float kInfF = std::numeric_limits<float>::infinity();
     double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
     double cell[3] = {1, 1, 1}, icell[3] = {1, 1, 1};  // voxel size (m) and 1 / size
     int n[3] = {1, 1, 1}, nb[3] = {1, 1, 1};
     // Non-empty bricks only, B^3 densities each (local (i, j, k) at (i * B + j) * B + k): a
     // sparse plume takes little memory, and a ray's voxels in one brick share cache lines.
-    std::vector<float> bricks;
+    // Not zeroed when allocated: the build writes every voxel, on its threads, which then
+    // also share first touching the pages (a dense 256^3 field: 64 MB).
+    struct Floats {
+        std::unique_ptr<float[]> p;
+        size_t n = 0;
+        void allocate(size_t count) {
+            p.reset(count ? new float[count] : nullptr);
+            n = count;
+        }
+        float& operator[](size_t i) { return p[i]; }
+        const float& operator[](size_t i) const { return p[i]; }
+        size_t size() const { return n; }
+    } bricks;
     // Per brick its block in `bricks` (-1: empty).
     std::vector<int32_t> brick_slot;
     // Per brick 0 if non-empty, else r in 1..kClearCap such that every brick within r - 1
@@ -39,8 +55,9 @@ struct VoxelGrid {
     float rho_min = 0.f, rho_max = 0.f;
 
     // The grid over [lo_, hi_] from densities rho[(i * n1 + j) * n2 + k] (not kept); throws
-    // std::invalid_argument for a density that is negative or not finite.
-    void build(const double* lo_, const double* hi_, const int* n_, const float* rho) {
+    // std::invalid_argument for a density that is negative or not finite. Slabs of bricks
+    // along x on `threads` threads (0: all cores).
+    void build(const double* lo_, const double* hi_, const int* n_, const float* rho, int threads = 1) {
         for (int a = 0; a < 3; ++a) {
             lo[a] = lo_[a];
             hi[a] = hi_[a];
@@ -49,21 +66,27 @@ struct VoxelGrid {
             nb[a] = (n[a] + B - 1) / B;
             icell[a] = 1.0 / cell[a];
         }
-        // Two passes over the densities: the first validates them and numbers the non-empty
-        // bricks in the order their first non-zero voxel is met, the second fills the bricks,
-        // allocated once (no reallocation: a dense 256^3 field is 64 MB).
+        // Two passes over the densities, each over slabs of bricks along x (a brick belongs
+        // to one slab: no two tasks write the same flags or bricks). The first validates them
+        // and marks the non-empty bricks; the bricks are then numbered in order and allocated
+        // once (no reallocation); the second fills them.
         const size_t nbricks = size_t(nb[0]) * nb[1] * nb[2];
         constexpr int M = B - 1;
-        brick_slot.assign(nbricks, -1);
-        std::vector<uint8_t> row_used(size_t(n[0]) * n[1], 0);
-        int32_t nslots = 0;
-        rho_min = rho[0];
-        rho_max = rho[0];
-        int first[3] = {n[0], n[1], n[2]}, last[3] = {-1, -1, -1};
-        const float* r = rho;
-        for (int i = 0; i < n[0]; ++i)
-            for (int j = 0; j < n[1]; ++j, r += n[2]) {
-                const size_t row = (size_t(i >> kShift) * nb[1] + (j >> kShift)) * nb[2];
+        std::vector<uint8_t> brick_used(nbricks, 0);
+        struct Slab {  // what a slab found
+            float lo_v = kInfF, hi_v = -kInfF;
+            bool bad = false;
+            int first[3] = {1 << 30, 1 << 30, 1 << 30}, last[3] = {-1, -1, -1};
+        };
+        std::vector<Slab> slabs(nb[0]);
+        auto rows = [&](int ib, auto&& row_fn) {  // the rows (i, j) of slab ib
+            const float* r = rho + size_t(ib) * B * n[1] * n[2];
+            for (int i = ib * B; i < std::min(n[0], ib * B + B); ++i)
+                for (int j = 0; j < n[1]; ++j, r += n[2]) row_fn(i, j, r);
+        };
+        parallel_for(size_t(nb[0]), threads, [&](size_t ib, int) {
+            Slab& sl = slabs[ib];
+            rows(int(ib), [&](int i, int j, const float* r) {
                 // The row's smallest and largest value in a loop the compiler vectorises (NaN
                 // fails both comparisons, so it is counted apart); most rows of a sparse
                 // field are all zero and end there.
@@ -75,36 +98,60 @@ struct VoxelGrid {
                     hi_v = v > hi_v ? v : hi_v;
                     nan += v != v;
                 }
-                if (nan || !(lo_v >= 0.f) || !std::isfinite(hi_v))
-                    throw std::invalid_argument("densities must be finite and >= 0");
-                rho_min = std::min(rho_min, lo_v);
-                rho_max = std::max(rho_max, hi_v);
-                if (!(hi_v > 0.f)) continue;
-                row_used[size_t(i) * n[1] + j] = 1;
+                if (nan || !(lo_v >= 0.f) || !std::isfinite(hi_v)) sl.bad = true;
+                sl.lo_v = std::min(sl.lo_v, lo_v);
+                sl.hi_v = std::max(sl.hi_v, hi_v);
+                if (!(hi_v > 0.f)) return;
+                const size_t row = (size_t(i >> kShift) * nb[1] + (j >> kShift)) * nb[2];
                 int kfirst = -1, klast = -1;
                 for (int k = 0; k < n[2]; ++k) {
                     if (!(r[k] > 0.f)) continue;
-                    int32_t& slot = brick_slot[row + (k >> kShift)];
-                    if (slot < 0) slot = nslots++;
+                    brick_used[row + (k >> kShift)] = 1;
                     if (kfirst < 0) kfirst = k;
                     klast = k;
                 }
-                first[0] = std::min(first[0], i); last[0] = std::max(last[0], i);
-                first[1] = std::min(first[1], j); last[1] = std::max(last[1], j);
-                first[2] = std::min(first[2], kfirst); last[2] = std::max(last[2], klast);
+                sl.first[0] = std::min(sl.first[0], i); sl.last[0] = std::max(sl.last[0], i);
+                sl.first[1] = std::min(sl.first[1], j); sl.last[1] = std::max(sl.last[1], j);
+                sl.first[2] = std::min(sl.first[2], kfirst); sl.last[2] = std::max(sl.last[2], klast);
+            });
+        });
+        int first[3] = {n[0], n[1], n[2]}, last[3] = {-1, -1, -1};
+        rho_min = kInfF;
+        rho_max = -kInfF;
+        for (const Slab& sl : slabs) {
+            if (sl.bad) throw std::invalid_argument("densities must be finite and >= 0");
+            rho_min = std::min(rho_min, sl.lo_v);
+            rho_max = std::max(rho_max, sl.hi_v);
+            for (int a = 0; a < 3; ++a) {
+                first[a] = std::min(first[a], sl.first[a]);
+                last[a] = std::max(last[a], sl.last[a]);
             }
-        bricks.assign(size_t(nslots) * B * B * B, 0.f);
-        bricks.shrink_to_fit();  // (a grid built before may have left capacity)
-        r = rho;
-        for (int i = 0; i < n[0]; ++i)
-            for (int j = 0; j < n[1]; ++j, r += n[2]) {
-                if (!row_used[size_t(i) * n[1] + j]) continue;
-                const size_t row = (size_t(i >> kShift) * nb[1] + (j >> kShift)) * nb[2];
-                const int local_ij = ((i & M) * B + (j & M)) * B;
-                for (int k = 0; k < n[2]; ++k)
-                    if (r[k] > 0.f)
-                        bricks[size_t(brick_slot[row + (k >> kShift)]) * B * B * B + local_ij + (k & M)] = r[k];
-            }
+        }
+        brick_slot.assign(nbricks, -1);
+        int32_t nslots = 0;
+        for (size_t b = 0; b < nbricks; ++b)
+            if (brick_used[b]) brick_slot[b] = nslots++;
+        bricks.allocate(size_t(nslots) * B * B * B);
+        // Every voxel of the non-empty bricks, 0 outside the grid and where rho = 0 (or -0).
+        parallel_for(size_t(nb[0]), threads, [&](size_t ib, int) {
+            for (int li = 0; li < B; ++li)
+                for (int j = 0; j < nb[1] * B; ++j) {
+                    const int i = int(ib) * B + li;
+                    const bool inside = i < n[0] && j < n[1];
+                    const float* r = inside ? rho + (size_t(i) * n[1] + j) * n[2] : nullptr;
+                    const size_t row = (ib * nb[1] + (j >> kShift)) * nb[2];
+                    const int local_ij = (li * B + (j & M)) * B;
+                    for (int kb = 0; kb < nb[2]; ++kb) {
+                        const int32_t slot = brick_slot[row + kb];
+                        if (slot < 0) continue;
+                        float* dst = &bricks[size_t(slot) * B * B * B + local_ij];
+                        for (int lk = 0; lk < B; ++lk) {
+                            const int k = kb * B + lk;
+                            dst[lk] = inside && k < n[2] && r[k] > 0.f ? r[k] : 0.f;
+                        }
+                    }
+                }
+        });
         occupied = last[0] >= 0;
         for (int a = 0; a < 3 && occupied; ++a) {
             // The faces of the first and last non-empty voxels; inside the grid widened by a
@@ -199,7 +246,7 @@ struct VoxelGrid {
             return *z1 > x.z;
         }
     };
-    void shadow_map(const Vec3& up, double spread, ShadowMap* m) const {
+    void shadow_map(const Vec3& up, double spread, ShadowMap* m, int threads = 1) const {
         m->up = up;
         m->spread = spread;
         m->all = true;
@@ -240,8 +287,8 @@ struct VoxelGrid {
             m->span[c + 1] = 0;
         }
         const double eps[2] = {1e-9 * (hi[0] - lo[0]), 1e-9 * (hi[1] - lo[1])};  // rounding
-        // The map's cells under voxel (i, j, k)'s widened footprint: r0[a] .. r1[a].
-        auto cells = [&](int i, int j, int k, int* r0, int* r1) {
+        // The map's cells under voxel (i, j, k)'s widened footprint: r[a] .. r[2 + a].
+        auto cells = [&](int i, int j, int k, int* r) {
             const int idx[2] = {i, j};
             const double z0 = lo[2] + k * cell[2], z1 = z0 + cell[2];
             const double w = dh * (z1 - m->z_floor);
@@ -249,55 +296,84 @@ struct VoxelGrid {
                 const double x0 = lo[a] + idx[a] * cell[a], x1 = x0 + cell[a];
                 const double g0 = x0 - std::max(s[a] * z0, s[a] * z1) - w - m->f0[a];
                 const double g1 = x1 - std::min(s[a] * z0, s[a] * z1) + w - m->f0[a];
-                // floor() by truncation (a libm call otherwise): equal where >= 0, and r0
-                // clamps to 0 anyway; r1 < 0 (no cell) kept apart.
+                // floor() by truncation (a libm call otherwise): equal where >= 0, and the
+                // first clamps to 0 anyway; a last < 0 (no cell) kept apart.
                 const double f0 = (g0 - eps[a]) * m->icell[a], f1 = (g1 + eps[a]) * m->icell[a];
-                r0[a] = f0 > 0.0 ? int(f0) : 0;
-                r1[a] = f1 >= 0.0 ? std::min(m->nf[a] - 1, int(f1)) : -1;
+                r[a] = f0 > 0.0 ? int(f0) : 0;
+                r[2 + a] = f1 >= 0.0 ? std::min(m->nf[a] - 1, int(f1)) : -1;
             }
         };
-        auto update = [&](const int* r0, const int* r1, uint16_t bot, uint16_t top) {
-            for (int i = r0[0]; i <= r1[0]; ++i)
-                for (int j = r0[1]; j <= r1[1]; ++j) {
-                    uint16_t* c = &m->span[2 * (size_t(i) * m->nf[1] + j)];
-                    c[0] = std::min(c[0], bot);
-                    c[1] = std::max(c[1], top);
+        // Per column (i, j) of voxels, each run of non-zero voxels up it, across bricks. The
+        // cell ranges' ends are linear in the height (the footprint's edges move linearly),
+        // so where a run's lowest and highest voxels cover the same cells, so do all between
+        // and one update serves the run; else each half in turn (thin voxels: a few updates
+        // per column). Slabs of bricks along x on `threads` threads, each thread into a map
+        // of its own, merged after.
+        int nt = threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency()));
+        nt = std::max(1, std::min(nt, nb[0]));
+        std::vector<std::vector<uint16_t>> own(size_t(nt - 1), m->span);
+        parallel_for(size_t(nb[0]), nt, [&](size_t ib, int tid) {
+            uint16_t* span = tid == 0 ? m->span.data() : own[size_t(tid - 1)].data();
+            auto update = [&](const int* r, int bot, int top) {
+                for (int i = r[0]; i <= r[2]; ++i)
+                    for (int j = r[1]; j <= r[3]; ++j) {
+                        uint16_t* c = &span[2 * (size_t(i) * m->nf[1] + j)];
+                        c[0] = std::min(c[0], uint16_t(bot));
+                        c[1] = std::max(c[1], uint16_t(top));
+                    }
+            };
+            // Voxels k0..k1 of column (i, j), whose lowest and highest cover cells ra, rb.
+            auto cover = [&](auto&& self, int i, int j, int k0, const int* ra, int k1, const int* rb) -> void {
+                if (ra[0] == rb[0] && ra[1] == rb[1] && ra[2] == rb[2] && ra[3] == rb[3]) {
+                    update(ra, k0, k1 + 1);
+                    return;
                 }
-        };
-        for (int ib = 0; ib < nb[0]; ++ib)
-            for (int jb = 0; jb < nb[1]; ++jb)
-                for (int kb = 0; kb < nb[2]; ++kb) {
-                    const int32_t slot = brick_slot[(size_t(ib) * nb[1] + jb) * nb[2] + kb];
-                    if (slot < 0) continue;
-                    const float* v = &bricks[size_t(slot) * B * B * B];
-                    for (int li = 0; li < B; ++li)
-                        for (int lj = 0; lj < B; ++lj) {
-                            const float* row = v + (li * B + lj) * B;
-                            const int i = ib * B + li, j = jb * B + lj;
-                            // Per run of non-zero voxels up the row: the cell ranges change
-                            // monotonically with the height (the footprint's edges move
-                            // linearly), so if the run's lowest and highest voxels cover the
-                            // same cells, so do all between and one update serves the run
-                            // (thin voxels: most runs); else voxel by voxel.
-                            for (int lk = 0; lk < B;) {
-                                if (!(row[lk] > 0.f)) { ++lk; continue; }
-                                const int ka = lk;
-                                while (lk < B && row[lk] > 0.f) ++lk;
-                                const int k0 = kb * B + ka, k1 = kb * B + lk - 1;
-                                int a0[2], a1[2], b0[2], b1[2];
-                                cells(i, j, k0, a0, a1);
-                                cells(i, j, k1, b0, b1);
-                                if (a0[0] == b0[0] && a0[1] == b0[1] && a1[0] == b1[0] && a1[1] == b1[1]) {
-                                    update(a0, a1, uint16_t(k0), uint16_t(k1 + 1));
-                                    continue;
-                                }
-                                for (int k = k0; k <= k1; ++k) {
-                                    cells(i, j, k, a0, a1);
-                                    update(a0, a1, uint16_t(k), uint16_t(k + 1));
+                const int km = (k0 + k1) / 2;  // (k1 > k0: one voxel covers its own cells)
+                int rc[4], rd[4];
+                cells(i, j, km, rc);
+                cells(i, j, km + 1, rd);
+                self(self, i, j, k0, ra, km, rc);
+                self(self, i, j, km + 1, rd, k1, rb);
+            };
+            auto run = [&](int i, int j, int k0, int k1) {
+                int ra[4], rb[4];
+                cells(i, j, k0, ra);
+                cells(i, j, k1, rb);
+                cover(cover, i, j, k0, ra, k1, rb);
+            };
+            const int ib_ = int(ib);
+            for (int jb = 0; jb < nb[1]; ++jb) {
+                const int32_t* slots = &brick_slot[(size_t(ib_) * nb[1] + jb) * nb[2]];
+                for (int li = 0; li < B && ib_ * B + li < n[0]; ++li)
+                    for (int lj = 0; lj < B && jb * B + lj < n[1]; ++lj) {
+                        const int i = ib_ * B + li, j = jb * B + lj;
+                        int k_start = -1;  // the open run's first voxel
+                        for (int kb = 0; kb < nb[2]; ++kb) {
+                            if (slots[kb] < 0) {
+                                if (k_start >= 0) run(i, j, k_start, kb * B - 1);
+                                k_start = -1;
+                                continue;
+                            }
+                            const float* row = &bricks[(size_t(slots[kb]) * B + li) * B * B + lj * B];
+                            for (int lk = 0; lk < B; ++lk) {
+                                const int k = kb * B + lk;
+                                if (row[lk] > 0.f) {
+                                    if (k_start < 0) k_start = k;
+                                } else if (k_start >= 0) {
+                                    run(i, j, k_start, k - 1);
+                                    k_start = -1;
                                 }
                             }
                         }
-                }
+                        if (k_start >= 0) run(i, j, k_start, nb[2] * B - 1);
+                    }
+            }
+        });
+        for (const auto& o : own)
+            for (size_t c = 0; c < o.size(); c += 2) {
+                m->span[c] = std::min(m->span[c], o[c]);
+                m->span[c + 1] = std::max(m->span[c + 1], o[c + 1]);
+            }
     }
 
     // The part [t0, t1] of the ray o + d t, t >= 0, where rho may be > 0 (the box of the

@@ -88,7 +88,7 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
             b = [sel(c.b) for c in grid.unit.scattering] or [np.zeros(nb)]
             core.set_water_grid(wi, origin.tolist(), (origin + grid.size).tolist(),
                                 np.ascontiguousarray(grid.density, dtype=np.float32),
-                                sel(grid.unit.absorption), b)
+                                sel(grid.unit.absorption), b, threads=int(scene.settings.threads))
         water_index[w.name] = wi
 
     for m in scene.meshes:
