@@ -86,3 +86,30 @@ def test_error_bench_quick(tmp_path):
     fake = [{"budget": 1, "seconds": 1.0, "rel_error": 0.2}, {"budget": 2, "seconds": 4.0, "rel_error": 0.025}]
     assert math.isclose(time_to_error(fake)["seconds"], 1.0 * 4.0 ** (math.log(4) / math.log(8)))
     assert time_to_error(fake[:1])["seconds"] is None
+
+
+def test_error_bench_takes_cases_and_their_own_values():
+    """run_error_bench on a given case whose ``pick`` chooses the values that count (here the
+    first radiometer's, of canonical problem 2): those, not the default, enter the errors."""
+    from photic.bench import ErrorCase, run_error_bench
+    from photic.problems import problem_scene
+    from photic.scene import Scene
+
+    seen = []
+
+    def pick(result):
+        r = result.radiometers[0]
+        seen.append(r.name)
+        return r.mean[:, 0], r.stderr[:, 0] ** 2
+
+    def make(integrator, cone):
+        d = problem_scene(2, 0.9)
+        d["settings"].update(integrator=integrator, forward_cone_deg=cone)
+        return Scene.from_dict(d)
+
+    case = ErrorCase("p2_first", "P2", "radiometers", make,
+                     {"path": [2048], "hybrid cone 0": [512], "hybrid auto": [512]}, 2048, "samples", pick)
+    records = run_error_bench(threads=2, plot=None, print_table=False, cases=[case])
+    assert {r["scene"] for r in records} == {"p2_first"} and len(records) == 3
+    assert len(seen) >= 3 and set(seen) == {make("path", 0.0).radiometers[0].name}
+    assert all(math.isfinite(r["rel_error"]) for r in records)

@@ -396,6 +396,8 @@ class ErrorCase:
     ``make(integrator, cone)`` builds the scene; ``kind`` is "radiometers" (budgets are
     samples per radiometer) or "image" (samples per pixel of the one camera); ``budgets`` maps
     a method label to its doubling budgets; the reference is hybrid cone 0 at ``ref_budget``.
+    ``pick(result)``, for radiometers: the (values, variances) whose errors count (default: every
+    radiometer's first band).
     """
 
     name: str
@@ -405,6 +407,7 @@ class ErrorCase:
     budgets: dict
     ref_budget: int
     unit: str
+    pick: object = None
 
 
 def _doubling(first: int, count: int) -> list[int]:
@@ -463,8 +466,11 @@ def _render_estimate(case: ErrorCase, scene: Scene, budget: int, seed: int, thre
 
     if case.kind == "radiometers":
         res = render(scene, radiometer_samples=budget, seed=seed, threads=threads)
-        values = np.array([r.mean[0, 0] for r in res.radiometers])
-        var = np.array([r.stderr[0, 0] ** 2 for r in res.radiometers])
+        if case.pick is not None:
+            values, var = case.pick(res)
+        else:
+            values = np.array([r.mean[0, 0] for r in res.radiometers])
+            var = np.array([r.stderr[0, 0] ** 2 for r in res.radiometers])
     else:
         res = render(scene, samples=budget, seed=seed, threads=threads)
         img = next(iter(res.images.values()))
@@ -588,11 +594,12 @@ def plot_error_records(records: list[dict], refs: dict, path: str | Path) -> Pat
 
 
 def run_error_bench(quick: bool = False, threads: int = 2, plot: str | Path | None = DEFAULT_ERROR_PLOT,
-                    print_table: bool = True, progress=None) -> list[dict]:
+                    print_table: bool = True, progress=None, cases: list | None = None) -> list[dict]:
     """Speed against error: pure path tracing, hybrid with cone 0 and hybrid with 'auto', at
     doubling budgets, on canonical problem 2 (omega0 = 0.9; the 9 radiometers) and on the
-    stepped pool seen by its underwater camera. Errors are relative to a reference rendered
-    once per scene with hybrid cone 0 at a large budget (its own variance removed).
+    stepped pool seen by its underwater camera, or on ``cases`` (``ErrorCase``s). Errors are
+    relative to a reference rendered once per scene with hybrid cone 0 at a large budget (its
+    own variance removed).
 
     Returns one record per (scene, method, budget): ``scene, method, budget, seconds,
     rel_error`` and ``rel_error_raw, ref_noise, below_ref_noise`` (rel_error is then the
@@ -606,7 +613,7 @@ def run_error_bench(quick: bool = False, threads: int = 2, plot: str | Path | No
 
     say = progress or (lambda msg: None)
     records, refs = [], {}
-    for ci, case in enumerate((_problem_case(quick), _pool_case(quick))):
+    for ci, case in enumerate(cases or (_problem_case(quick), _pool_case(quick))):
         ref_scene = case.make("hybrid", 0.0)
         seed = 900_001 + ci
         t, ref, ref_var, _ = _render_estimate(case, ref_scene, case.ref_budget, seed, threads)
