@@ -53,8 +53,8 @@ def plume_scene(integrator: str, cone, shape) -> Scene:
 def pick(result):
     """Lu above the plume and above clear water, every band: values and their variances."""
     rs = [result.radiometer(n) for n in NAMES]
-    return (np.concatenate([r.mean[:, 0] for r in rs]),
-            np.concatenate([r.stderr[:, 0] ** 2 for r in rs]))
+    return (np.concatenate([r.mean[0] for r in rs]),          # (nbins = 1, nbands)
+            np.concatenate([r.stderr[0] ** 2 for r in rs]))
 
 
 def main(argv=None) -> None:

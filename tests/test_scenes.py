@@ -90,7 +90,8 @@ def test_error_bench_quick(tmp_path):
 
 def test_error_bench_takes_cases_and_their_own_values():
     """run_error_bench on a given case whose ``pick`` chooses the values that count (here the
-    first radiometer's, of canonical problem 2): those, not the default, enter the errors."""
+    first radiometer's, of canonical problem 2, in every band): those, not the default, enter
+    the errors."""
     from photic.bench import ErrorCase, run_error_bench
     from photic.problems import problem_scene
     from photic.scene import Scene
@@ -100,7 +101,7 @@ def test_error_bench_takes_cases_and_their_own_values():
     def pick(result):
         r = result.radiometers[0]
         seen.append(r.name)
-        return r.mean[:, 0], r.stderr[:, 0] ** 2
+        return r.mean[0], r.stderr[0] ** 2  # (nbins = 1, nbands)
 
     def make(integrator, cone):
         d = problem_scene(2, 0.9)
