@@ -383,11 +383,14 @@ def _cache_bytes() -> int:
 
 
 def _cache_put(key, got):
-    if isinstance(got, tuple):  # the same densities as a read kept (a Volume still in time)
+    if isinstance(got, tuple):
+        # The same densities as the newest read of that shape (a Volume still in time, read
+        # frame by frame): kept once. One comparison per read, not one per read kept.
         d = got[0]
-        for other in _VOLUME_CACHE.values():
-            if isinstance(other, tuple) and other[0].shape == d.shape and np.array_equal(other[0], d):
-                got = (other[0],) + tuple(got[1:])
+        for other in reversed(list(_VOLUME_CACHE.values())):
+            if isinstance(other, tuple) and other[0].shape == d.shape:
+                if np.array_equal(other[0], d):
+                    got = (other[0],) + tuple(got[1:])
                 break
     _VOLUME_CACHE.pop(key, None)
     _VOLUME_CACHE[key] = got
