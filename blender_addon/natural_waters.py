@@ -447,15 +447,19 @@ def read_volumes_over_frames(scene, frames, progress=None) -> tuple[list, str | 
     unchanged from frame to frame is kept once). ``progress(done, total)`` after each frame."""
     start, keys, done = scene.frame_current, [], []
     frames = list(frames)
+    full = False
     try:
         for i, frame in enumerate(frames):
             scene.frame_set(frame)
             done += read_volumes(scene, force=False, keys=keys)
             if progress is not None:
                 progress(i + 1, len(frames))
+            full = any(k not in _VOLUME_CACHE for k in keys)  # (a frame read is forgotten)
+            if full:
+                break
     finally:
         scene.frame_set(start)
-    if any(k not in _VOLUME_CACHE for k in keys):
+    if full:
         gb = VOLUME_CACHE_BYTES / 2 ** 30
         return done, (f"the Volume grids of frames {frames[0]}-{frames[-1]} need more than the "
                       f"{gb:g} GB kept for them: render the animation from the command line "
