@@ -531,6 +531,21 @@ def test_volume_grids_are_read_for_every_frame_of_an_animation(empty, tmp_path):
     assert_slab_followed(render_animation())
 
 
+def test_batch_exports_each_frame_of_a_moving_volume_grid(empty, tmp_path):
+    """``photic batch`` with a .blend and several frames (``batch.export_frames``, a final
+    render's export per frame): the saved file opened again, each frame's grid read where the
+    keyframed Volume is at that frame (its box 4 m further west at frame 2)."""
+    from photic_blender import natural_waters
+    from photic_blender.batch import export_frames
+    moving_slab(empty, tmp_path)
+    bpy.ops.wm.save_mainfile()
+    natural_waters._VOLUME_CACHE.clear()
+    (f1, s1), (f2, s2) = export_frames(tmp_path / "scene.blend", frames=[1, 2])
+    o1, o2 = (np.asarray(s.water[0].iops.origin) for s in (s1, s2))
+    assert (f1, f2) == (1, 2)
+    np.testing.assert_allclose(o2 - o1, [-4.0, 0.0, 0.0], atol=1e-6)
+
+
 def test_every_frame_read_serves_an_animation_rendered_off_the_main_thread(empty, tmp_path,
                                                                          monkeypatch):
     """Ctrl+F12 in Blender's interface renders in a thread of its own, where a Volume cannot be
