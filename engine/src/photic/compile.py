@@ -42,11 +42,12 @@ def _oriented_up(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 
 def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = None,
                   max_depth: int | None = None, hybrid: bool = False,
-                  forward_cone_deg: float = 0.0) -> _core.Scene:
+                  forward_cone_deg: float = 0.0, threads: int | None = None) -> _core.Scene:
     """Build and commit the core scene for one group of bands.
 
     ``hybrid`` selects the hybrid integrator (beams must then be built for each pass with
-    ``core.build_beams``); ``forward_cone_deg`` is the forward-scattering cone's half-angle.
+    ``core.build_beams``); ``forward_cone_deg`` is the forward-scattering cone's half-angle;
+    ``threads`` (default: the scene's setting; 0 = all cores) build its grids.
     """
     bands = bands or slice(0, len(scene.bands))
     nb = len(range(*bands.indices(len(scene.bands))))
@@ -88,7 +89,8 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
             b = [sel(c.b) for c in grid.unit.scattering] or [np.zeros(nb)]
             core.set_water_grid(wi, origin.tolist(), (origin + grid.size).tolist(),
                                 np.ascontiguousarray(grid.density, dtype=np.float32),
-                                sel(grid.unit.absorption), b, threads=int(scene.settings.threads))
+                                sel(grid.unit.absorption), b,
+                                threads=int(scene.settings.threads if threads is None else threads))
         water_index[w.name] = wi
 
     for m in scene.meshes:

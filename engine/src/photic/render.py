@@ -382,7 +382,7 @@ class Renderer:
         cancelled = False
         for gi, g in enumerate(groups):
             core = compile_scene(scene, g, seed=self.seed, hybrid=hybrid,
-                                 forward_cone_deg=self.forward_cone_deg)
+                                 forward_cone_deg=self.forward_cone_deg, threads=self.threads)
             self._core = core
             if self._cancel.is_set():
                 core.cancel()
