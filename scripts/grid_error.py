@@ -28,10 +28,14 @@ from grid_cost import _examples
 NAMES = ("Lu_plume", "Lu_clear")
 
 
+_TEMP_DIRS = []  # removed when the interpreter exits
+
+
 @functools.lru_cache(maxsize=None)
 def density_file(shape: tuple) -> Path:
     """The example's plume on a grid of ``shape``, in a .npz (as users give grids)."""
-    path = Path(tempfile.mkdtemp(prefix="photic_grid_error_")) / "plume.npz"
+    _TEMP_DIRS.append(tempfile.TemporaryDirectory(prefix="photic_grid_error_"))
+    path = Path(_TEMP_DIRS[-1].name) / "plume.npz"
     np.savez(path, density=_examples().plume_density(shape))
     return path
 
@@ -57,7 +61,7 @@ def pick(result):
             np.concatenate([r.stderr[0] ** 2 for r in rs]))
 
 
-def main(argv=None) -> None:
+def main(argv=None) -> list:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--shape", type=int, nargs=3, default=None, help="the plume's grid (default: the example's)")
     ap.add_argument("--threads", type=int, default=2)
@@ -78,8 +82,8 @@ def main(argv=None) -> None:
                      f"SEDIMENT PLUME {'X'.join(map(str, shape))}: LU",
                      "radiometers", lambda integrator, cone: plume_scene(integrator, cone, shape),
                      budgets, ref, "samples", pick)
-    run_error_bench(threads=args.threads, plot=args.plot, cases=[case],
-                    progress=lambda msg: print(msg, flush=True))
+    return run_error_bench(threads=args.threads, plot=args.plot, cases=[case],
+                           progress=lambda msg: print(msg, flush=True))
 
 
 if __name__ == "__main__":

@@ -114,3 +114,19 @@ def test_error_bench_takes_cases_and_their_own_values():
     assert {r["scene"] for r in records} == {"p2_first"} and len(records) == 3
     assert len(seen) >= 3 and set(seen) == {make("path", 0.0).radiometers[0].name}
     assert all(math.isfinite(r["rel_error"]) for r in records)
+
+
+def test_grid_error_script_runs(tmp_path):
+    """scripts/grid_error.py --quick on a small grid of the plume example: every method's
+    records over the 20 values (Lu above plume and clear water in 10 bands), and its plot."""
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+    try:
+        import grid_error
+        records = grid_error.main(["--quick", "--shape", "16", "16", "4", "--plot", str(tmp_path / "e.png")])
+    finally:
+        sys.path.pop(0)
+    assert {r["method"] for r in records} == {"path", "hybrid cone 0", "hybrid auto"}
+    assert all(r["scene"] == "sediment_plume_16x16x4" and math.isfinite(r["rel_error"]) for r in records)
+    assert _read_png(tmp_path / "e.png").shape[2] == 3
