@@ -13,7 +13,7 @@ from pathlib import Path
 
 import bpy
 
-from . import final_render, natural_waters
+from . import final_render
 
 
 def ensure_registered() -> None:
@@ -88,8 +88,7 @@ def render_blend(path, frame: int | None = None, out_dir=None, samples: int | No
     settings.exr_codec = "ZIP"
     scene.render.use_file_extension = True
     scene.render.filepath = str(out_dir / f"{path.stem}_####")
-    # Volume grids, on the main thread (loading the file read them at its own frame)
-    natural_waters.read_volumes(scene, force=False)
+    # (Volume grids: read before the frame by natural_waters' render_pre handler)
     final_render.LAST_RENDER.clear()
     final_render.PROGRESS_HOOK = progress
     try:

@@ -37,8 +37,8 @@ P_TABLE_FILE = "Photic > Layer Table File (photic.profile_table_file)"
 P_GRID_FILE = "Photic > Density File (photic.grid_file)"
 P_GRID_SOURCE = "Photic > Density (photic.grid_source)"
 P_GRID_BOX = "Photic > Grid Box (photic.grid_box)"
-WATER_ROLES = ("WATER_BODY", "WATER_SURFACE")
 P_UNIT_MODEL = "Photic > Unit IOP Model (photic.unit_model)"
+WATER_ROLES = ("WATER_BODY", "WATER_SURFACE")  # the objects that carry IOPs
 
 
 def varying_iops(ex, obj, level: float, bounds):

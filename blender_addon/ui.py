@@ -4,6 +4,7 @@ from __future__ import annotations
 import bpy
 
 from . import final_render
+from .natural_waters import WATER_ROLES
 from .engine_loader import engine_error, load_engine
 from .nodes import find_node
 
@@ -120,7 +121,7 @@ class PHOTIC_PT_object(PhoticPanel, bpy.types.Panel):
         layout.use_property_split = True
         p = context.object.photic
         layout.prop(p, "role")
-        if p.role in {"WATER_BODY", "WATER_SURFACE"}:
+        if p.role in WATER_ROLES:
             layout.prop(p, "iop_source")
             if p.iop_source == "MODEL":
                 layout.prop(p, "iop_model")
@@ -190,7 +191,7 @@ class PHOTIC_PT_iop_variation(PhoticPanel, bpy.types.Panel):
     @classmethod
     def poll(cls, context):
         return PHOTIC_PT_object.poll(context) and \
-            context.object.photic.role in {"WATER_BODY", "WATER_SURFACE"}
+            context.object.photic.role in WATER_ROLES
 
     def draw(self, context):
         layout = self.layout

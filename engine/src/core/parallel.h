@@ -7,11 +7,16 @@
 
 namespace photic {
 
-// Runs body(i, thread_index) for i in [0, n) on `threads` threads (0: all cores).
+// The threads parallel_for runs n items on: `threads` (0: all cores), at most n, at least 1.
+inline int thread_count(int threads, size_t n) {
+    if (threads <= 0) threads = int(std::max(1u, std::thread::hardware_concurrency()));
+    return int(std::min<size_t>(size_t(threads), std::max<size_t>(n, 1)));
+}
+
+// Runs body(i, thread_index) for i in [0, n) on thread_count(threads, n) threads.
 template <class F>
 void parallel_for(size_t n, int threads, F&& body) {
-    if (threads <= 0) threads = int(std::max(1u, std::thread::hardware_concurrency()));
-    threads = int(std::min<size_t>(size_t(threads), std::max<size_t>(n, 1)));
+    threads = thread_count(threads, n);
     std::atomic<size_t> next{0};
     auto worker = [&](int tid) {
         for (;;) {

@@ -309,8 +309,7 @@ struct VoxelGrid {
         // and one update serves the run; else each half in turn (thin voxels: a few updates
         // per column). Slabs of bricks along x on `threads` threads, each thread into a map
         // of its own, merged after.
-        int nt = threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency()));
-        nt = std::max(1, std::min(nt, nb[0]));
+        const int nt = thread_count(threads, size_t(nb[0]));
         std::vector<std::vector<uint16_t>> own(size_t(nt - 1), m->span);
         parallel_for(size_t(nb[0]), nt, [&](size_t ib, int tid) {
             uint16_t* span = tid == 0 ? m->span.data() : own[size_t(tid - 1)].data();
