@@ -321,7 +321,7 @@ def test_grid_walk_equals_exact_integral(field):
     crossed = 0
     for p0, p1 in segments:
         ref = _exact_integral(rho, lo, size, p0, p1)
-        got = core.grid_integral(0, p0.tolist(), p1.tolist())
+        (got,) = core.grid_integral(0, p0.tolist(), p1.tolist())
         crossed += ref > 0
         # along a plane of voxel faces either neighbour's density is right
         assert got == pytest.approx(ref, rel=1e-9, abs=1e-12) or _on_face(p0, p1, lo, cell), (p0, p1, got, ref)
@@ -347,8 +347,8 @@ def test_grid_density_lookup(field):
         q = np.floor((p - lo) / cell).astype(int)
         inside = np.all((p >= lo) & (p <= lo + size))
         ref = float(np.float32(rho[tuple(np.minimum(q, n - 1))])) if inside else 0.0
-        assert core.grid_density(0, p.tolist()) == ref, (p, ref)
-    assert sum(core.grid_density(0, p.tolist()) > 0 for p in pts) > 100 or field == "one voxel"
+        assert core.grid_density(0, p.tolist()) == [ref], (p, ref)
+    assert sum(core.grid_density(0, p.tolist())[0] > 0 for p in pts) > 100 or field == "one voxel"
 
 
 @pytest.mark.parametrize("field", ["sparse 37x29x45", "thin 12x10x96"])
@@ -374,7 +374,7 @@ def test_regular_tracking_inverts_the_optical_depth_exactly(field):
         s0, s1 = (0.0, 2.0) if rng.random() < 0.3 else (0.4, 1.5)
         xi = rng.exponential()
         t_stop = 0.5 + 6.0 * rng.random()
-        hit, t, rho_at, integral, left = core.grid_march(0, o.tolist(), u.tolist(), s0, s1, xi, t_stop)
+        hit, t, (rho_at,), (integral,), left = core.grid_march(0, o.tolist(), u.tolist(), s0, [s1], xi, t_stop)
         r = _exact_integral(rho, lo, size, o, o + u * t) if t > 0 else 0.0
         assert integral == pytest.approx(r, rel=1e-9, abs=1e-12)
         depth = s0 * t + s1 * r

@@ -35,43 +35,54 @@ struct SourceTri {
 
 }  // namespace
 
-// A grid's unit coefficients with the forward cone's f, the free paths' majorant s0 + s1 rho,
-// and the water's bounds (majorant, smallest beam attenuation, beam-scattering rate, MIS
-// weights) widened to every density in the grid. c(x) = c_base + rho c_unit with rho >= 0 and
-// c_unit >= 0.
+// A grid's unit coefficients with the forward cone's f, the free paths' majorant
+// s0 + sum_f s1[f] rho_f, and the water's bounds (majorant, smallest beam attenuation,
+// beam-scattering rate, MIS weights) widened to every density in the grid.
+// c(x) = c_base + sum_f rho_f c_unit,f with rho_f >= 0 and c_unit,f >= 0.
 void Scene::set_grid_coefficients(Water& w) const {
     VoxelGrid& g = *w.grid;
-    WaterLayer& U = w.grid_unit;
-    U.b_path = Spectrum();
-    U.comp_b_path.assign(w.components.size(), Spectrum());
-    for (size_t ci = 0; ci < w.components.size(); ++ci)
+    const int nf = w.grid_fields();
+    for (WaterLayer& U : w.grid_units) {
+        U.b_path = Spectrum();
+        U.comp_b_path.assign(w.components.size(), Spectrum());
+        for (size_t ci = 0; ci < w.components.size(); ++ci)
+            for (int k = 0; k < nbands; ++k) {
+                U.comp_b_path[ci].v[k] = U.comp_b[ci].v[k] * (1.0 - w.components[ci].f);
+                U.b_path.v[k] += U.comp_b_path[ci].v[k];
+            }
         for (int k = 0; k < nbands; ++k) {
-            U.comp_b_path[ci].v[k] = U.comp_b[ci].v[k] * (1.0 - w.components[ci].f);
-            U.b_path.v[k] += U.comp_b_path[ci].v[k];
+            U.c_beam.v[k] = U.a.v[k] + U.b_path.v[k];
+            U.c_path.v[k] = U.c_beam.v[k];
         }
-    for (int k = 0; k < nbands; ++k) {
-        U.c_beam.v[k] = U.a.v[k] + U.b_path.v[k];
-        U.c_path.v[k] = U.c_beam.v[k];
     }
     // Over the base's layers (a depth profile under the grid) and bands.
-    w.grid_s0 = w.grid_s1 = 0.0;
-    for (int k = 0; k < nbands; ++k) w.grid_s1 = std::max(w.grid_s1, U.b_path.v[k]);
+    w.grid_s0 = 0.0;
+    for (int f = 0; f < nf; ++f) {
+        w.grid_s1[f] = 0.0;
+        for (int k = 0; k < nbands; ++k) w.grid_s1[f] = std::max(w.grid_s1[f], w.grid_units[f].b_path.v[k]);
+    }
+    double rmin[VoxelGrid::kMaxFields], rmax[VoxelGrid::kMaxFields];
+    for (int f = 0; f < nf; ++f) {
+        rmin[f] = g.rho_min[f];
+        rmax[f] = g.rho_max[f];
+    }
     double cmean = 0.0;
     for (const WaterLayer& B : w.layers) {
         double layer_mean = 0.0;
         for (int k = 0; k < nbands; ++k) {
             w.grid_s0 = std::max(w.grid_s0, B.b_path.v[k]);
-            w.c_beam_min = std::min(w.c_beam_min, B.c_beam.v[k] + g.rho_min * U.c_beam.v[k]);
+            w.c_beam_min = std::min(w.c_beam_min, w.grid_add(B.c_beam.v[k], rmin, &WaterLayer::c_beam, k));
             w.a_min = std::min(w.a_min, B.a.v[k]);
-            layer_mean += (B.c_path.v[k] + g.rho_max * U.c_path.v[k]) / nbands;
+            layer_mean += w.grid_add(B.c_path.v[k], rmax, &WaterLayer::c_path, k) / nbands;
         }
         cmean = std::max(cmean, layer_mean);
     }
-    w.majorant = std::max(w.majorant, w.grid_s0 + g.rho_max * w.grid_s1);
+    w.majorant = std::max(w.majorant, w.grid_majorant(rmax));
     if (!(w.c_path_mean > 0.0)) w.c_path_mean = cmean;  // any rate > 0 is unbiased
     for (size_t ci = 0; ci < w.components.size(); ++ci) {
         double b = 0.0;
-        for (int k = 0; k < nbands; ++k) b += U.comp_b[ci].v[k];
+        for (int k = 0; k < nbands; ++k)
+            for (const WaterLayer& U : w.grid_units) b += U.comp_b[ci].v[k];
         w.components[ci].weight += b;
         w.mis_bsum += b;
         w.mis_wsum += b;
@@ -535,8 +546,9 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
         const Spectrum& c = w.layers[0].c_beam;
         for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * std::exp(-c.v[k] * l) / (a_eff * md);
     } else if (w.grid) {  // the beam's straight path from the surface (y - d l) to y through the voxels
-        double att[kMaxBands];
-        w.grid_transmittance(y.z - d.z * l, y.z, l, w.grid->integral(y - d * l, y, l), nbands, att);
+        double att[kMaxBands], r[VoxelGrid::kMaxFields];
+        w.grid->integral(y - d * l, y, l, r);
+        w.grid_transmittance(y.z - d.z * l, y.z, l, r, nbands, att);
         for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * att[k] / (a_eff * md);
     } else {  // the same through the layers
         Spectrum tau;
@@ -568,11 +580,11 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool ex
                 } else if (w.grid) {  // exp(-int c_beam dl) from the surface down through the voxels
                     // Only the part of the ray between the heights where it may meet density
                     // is walked (none if it meets none).
-                    double r = 0.0, z0 = -kInf, z1 = kInf;
+                    double r[VoxelGrid::kMaxFields] = {}, z0 = -kInf, z1 = kInf;
                     if (i >= flat_shade_ok.size() || !flat_shade_ok[i] || flat_shade.meets(x, &z0, &z1)) {
                         const double za = std::max(x.z, z0), zb = std::min(ocean_z, z1);
                         const double la = (za - x.z) / (-fd.z), lb = (zb - x.z) / (-fd.z);
-                        r = w.grid->integral(x - fd * lb, x - fd * la, lb - la);
+                        w.grid->integral(x - fd * lb, x - fd * la, lb - la, r);
                     }
                     double att[kMaxBands];
                     w.grid_transmittance(ocean_z, x.z, l, r, nbands, att);

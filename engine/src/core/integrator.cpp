@@ -65,7 +65,8 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
     // The local scattering at x (in a grid the base's plus the density rx times the unit's)
     // and the attenuation back to o (through the layers or voxels crossed).
     const WaterLayer& L = w.layer_at(x.z);
-    const double rx = w.grid ? w.grid->at(x) : 0.0;
+    double rx[VoxelGrid::kMaxFields];
+    const bool in_field = w.grid && w.grid->at(x, rx);
     double att[kMaxBands];
     if (deferred_t) {  // gridded water only: the caller's walk along the segment will tell
         *deferred_t = t;
@@ -73,7 +74,9 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
     } else if (!w.varying()) {
         for (int kb = 0; kb < nbands; ++kb) att[kb] = std::exp(-L.c_path.v[kb] * t);
     } else if (w.grid) {
-        w.grid_transmittance(o.z, x.z, t, w.grid->integral(o, x, t), nbands, att);
+        double r[VoxelGrid::kMaxFields];
+        w.grid->integral(o, x, t, r);
+        w.grid_transmittance(o.z, x.z, t, r, nbands, att);
     } else {
         Spectrum tau;
         w.add_optical_depth(&WaterLayer::c_path, o.z, x.z, t, nbands, &tau);
@@ -89,8 +92,10 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
         for (int kb = 0; kb < nbands; ++kb) {
             double bp = 0.0;
             for (size_t ci = 0; ci < nc; ++ci) bp += L.comp_b[ci].v[kb] * pv[ci];
-            if (rx > 0.0)
-                for (size_t ci = 0; ci < nc; ++ci) bp += rx * w.grid_unit.comp_b[ci].v[kb] * pv[ci];
+            if (in_field)
+                for (int f = 0; f < w.grid_fields(); ++f)
+                    if (rx[f] > 0.0)
+                        for (size_t ci = 0; ci < nc; ++ci) bp += rx[f] * w.grid_units[f].comp_b[ci].v[kb] * pv[ci];
             out->v[kb] += att[kb] * bp * beams[j].e.v[kb] / pdf;
         }
     }
@@ -176,7 +181,8 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
     double bv_weight = first_beam_weight;  // MIS weight of this segment's beam scattering
     // Gridded water (per segment): the walk along it, and its beam term waiting for it.
     std::optional<VoxelGrid::Cursor> gcursor;
-    double t_beam = -1.0, r_beam = 0.0, grho = 0.0;
+    double t_beam = -1.0;
+    double r_beam[VoxelGrid::kMaxFields] = {}, grho[VoxelGrid::kMaxFields] = {};  // per field
     bool beam_read = false;
     Spectrum beam_wait;
 
@@ -205,11 +211,11 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 if (w.grid) {
                     for (;;) {  // on to the collision, reading the integral at t_beam on the way
                         if (t_beam >= 0.0 && !beam_read && t_beam <= gcursor->position()) {
-                            r_beam = gcursor->integral();
+                            std::copy_n(gcursor->integral(), w.grid_fields(), r_beam);
                             beam_read = true;
                         }
                         const bool to_beam = t_beam >= 0.0 && !beam_read;
-                        if (gcursor->march(w.grid_s0, w.grid_s1, &xi, to_beam ? t_beam : t_hit, &grho))
+                        if (gcursor->march(w.grid_s0, w.grid_s1, &xi, to_beam ? t_beam : t_hit, grho))
                             return gcursor->position() - t_cur;
                         if (!to_beam) return kInf;  // none before the segment's end
                     }
@@ -223,19 +229,21 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             beam_read = false;
             auto settle = [&](double t_end) {
                 if (!w.grid) return;
-                double r_end = 0.0;
+                const int nf = w.grid_fields();
+                double r_end[VoxelGrid::kMaxFields] = {};
                 const bool end = t_end < kInf;
                 const bool beam = t_beam >= 0.0 && !beam_read;
-                if (beam && (!end || t_beam <= t_end)) r_beam = gcursor->value(t_beam);
+                if (beam && (!end || t_beam <= t_end)) std::copy_n(gcursor->value(t_beam), nf, r_beam);
                 if (end && t_end < gcursor->position()) {
                     // Path tracing walked on to a tentative collision beyond the surface at
                     // t_end: the part behind it walked again, backwards from the surface.
                     VoxelGrid::Cursor back(*w.grid, o + d * t_end, d);
-                    r_end = gcursor->integral() - back.value(gcursor->position() - t_end);
+                    const double* behind = back.value(gcursor->position() - t_end);
+                    for (int f = 0; f < nf; ++f) r_end[f] = gcursor->integral()[f] - behind[f];
                 } else if (end) {
-                    r_end = gcursor->value(t_end);
+                    std::copy_n(gcursor->value(t_end), nf, r_end);
                 }
-                if (beam && end && t_beam > t_end) r_beam = gcursor->value(t_beam);
+                if (beam && end && t_beam > t_end) std::copy_n(gcursor->value(t_beam), nf, r_beam);
                 if (t_beam >= 0.0) {
                     double att[kMaxBands];
                     w.grid_transmittance(o.z, o.z + d.z * t_beam, t_beam, r_beam, nb, att);
@@ -275,7 +283,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 if (w.grid) L = &w.local_at_density(grho, o.z + d.z * t_cur, &grid_local, nb);
                 else if (strat) L = &w.layers[lc];
                 else pending += dt;
-                const double maj = w.grid ? w.grid_s0 + w.grid_s1 * grho : strat ? L->majorant : w.majorant;
+                const double maj = w.grid ? w.grid_majorant(grho) : strat ? L->majorant : w.majorant;
                 // Any probability fixed before the decision keeps the estimate unbiased;
                 // weighting by the (not yet absorbed) throughput keeps band weights tame.
                 double num = 0.0, den = 0.0;

@@ -225,41 +225,51 @@ PYBIND11_MODULE(_core, m) {
            "scattering spectrum per component (the components' phase functions are the water's).")
         .def("set_water_grid", [](Scene& s, int water, std::array<double, 3> lo, std::array<double, 3> hi,
                                   py::array_t<float, py::array::c_style | py::array::forcecast> rho,
-                                  DArray a, std::vector<DArray> b, int threads) {
+                                  std::vector<DArray> a, std::vector<std::vector<DArray>> b, int threads) {
             if (water < 0 || water >= int(s.waters.size())) throw std::invalid_argument("bad water index");
             Water& w = s.waters[water];
-            if (rho.ndim() != 3) throw std::invalid_argument("the density must be an (nx, ny, nz) array");
-            if (b.size() != w.components.size())
-                throw std::invalid_argument("the grid's unit IOPs need one scattering spectrum per component");
+            if (rho.ndim() != 4) throw std::invalid_argument("the densities must be an (fields, nx, ny, nz) array");
+            const int nf = int(rho.shape(0));
+            if (nf < 1 || nf > VoxelGrid::kMaxFields)
+                throw std::invalid_argument("a grid holds 1 to 4 density fields");
+            if (int(a.size()) != nf || int(b.size()) != nf)
+                throw std::invalid_argument("the grid needs unit IOPs (absorption, scattering) per density field");
             int n[3];
-            for (int a = 0; a < 3; ++a) {
-                if (!(hi[a] > lo[a]) || !std::isfinite(lo[a]) || !std::isfinite(hi[a]))
+            for (int ax = 0; ax < 3; ++ax) {
+                if (!(hi[ax] > lo[ax]) || !std::isfinite(lo[ax]) || !std::isfinite(hi[ax]))
                     throw std::invalid_argument("the grid's box must have finite corners with hi > lo");
-                if (rho.shape(a) < 1) throw std::invalid_argument("the grid needs at least one voxel per axis");
-                n[a] = int(rho.shape(a));
+                if (rho.shape(ax + 1) < 1) throw std::invalid_argument("the grid needs at least one voxel per axis");
+                n[ax] = int(rho.shape(ax + 1));
             }
-            WaterLayer unit;
-            unit.a = to_spectrum(a, s.nbands, "absorption");
-            for (auto& bc : b) {
-                unit.comp_b.push_back(to_spectrum(bc, s.nbands, "scattering"));
-                for (int k = 0; k < s.nbands; ++k) unit.b.v[k] += unit.comp_b.back().v[k];
-            }
-            for (int k = 0; k < s.nbands; ++k) {
-                if (unit.a.v[k] < 0.0 || unit.b.v[k] < 0.0)
-                    throw std::invalid_argument("the grid's unit IOPs must be >= 0");
+            std::vector<WaterLayer> units(nf);
+            for (int f = 0; f < nf; ++f) {
+                WaterLayer& unit = units[f];
+                if (b[f].size() != w.components.size())
+                    throw std::invalid_argument("the grid's unit IOPs need one scattering spectrum per component");
+                unit.a = to_spectrum(a[f], s.nbands, "absorption");
+                for (auto& bc : b[f]) {
+                    unit.comp_b.push_back(to_spectrum(bc, s.nbands, "scattering"));
+                    for (int k = 0; k < s.nbands; ++k) unit.b.v[k] += unit.comp_b.back().v[k];
+                }
+                for (int k = 0; k < s.nbands; ++k) {
+                    if (unit.a.v[k] < 0.0 || unit.b.v[k] < 0.0)
+                        throw std::invalid_argument("the grid's unit IOPs must be >= 0");
+                }
             }
             auto g = std::make_shared<VoxelGrid>();
             {
                 py::gil_scoped_release release;
-                g->build(lo.data(), hi.data(), n, rho.data(), threads);  // checks the densities
+                g->build(lo.data(), hi.data(), n, rho.data(), threads, nf);  // checks the densities
             }
-            w.grid_unit = unit;
+            w.grid_units = std::move(units);
             w.grid = g;
         }, py::arg("water"), py::arg("lo"), py::arg("hi"), py::arg("density"), py::arg("absorption"),
            py::arg("scattering"), py::arg("threads") = 0,
-           "3-D IOPs of a water body over the box [lo, hi]: per voxel (density[i, j, k], x fastest "
-           "varying in i) its IOPs are the base (its layer at that height, if it has several) plus "
-           "density times these unit IOPs. Built on `threads` threads (0: all cores).")
+           "3-D IOPs of a water body over the box [lo, hi] from F density fields on one lattice "
+           "(density[f, i, j, k], x fastest varying in i): per voxel its IOPs are the base (its "
+           "layer at that height, if it has several) plus, per field, its density times the "
+           "field's unit IOPs (absorption[f]: a spectrum; scattering[f]: one spectrum per "
+           "component). Built on `threads` threads (0: all cores).")
         .def("add_mesh", [](Scene& s, FArray v, UArray t, int kind, int index) {
             if (v.ndim() != 2 || v.shape(1) != 3 || t.ndim() != 2 || t.shape(1) != 3)
                 throw std::invalid_argument("vertices and triangles must be (N, 3) arrays");
@@ -357,29 +367,37 @@ PYBIND11_MODULE(_core, m) {
             const Water& w = s.waters.at(water);
             if (!w.grid) throw std::invalid_argument("this water has no grid");
             Vec3 a = to_vec(p0), b = to_vec(p1);
-            return w.grid->integral(a, b, length(b - a));
+            double r[VoxelGrid::kMaxFields];
+            w.grid->integral(a, b, length(b - a), r);
+            return std::vector<double>(r, r + w.grid->nfields);
         }, py::arg("water"), py::arg("p0"), py::arg("p1"),
-           "The integral of the grid's density along the segment p0 -> p1 (m): what the "
-           "integrators' optical depths use (for tests).")
+           "The integral of each of the grid's density fields along the segment p0 -> p1 (m): "
+           "what the integrators' optical depths use (for tests).")
         .def("grid_density", [](const Scene& s, int water, std::array<double, 3> p) {
             const Water& w = s.waters.at(water);
             if (!w.grid) throw std::invalid_argument("this water has no grid");
-            return w.grid->at(to_vec(p));
+            double r[VoxelGrid::kMaxFields];
+            w.grid->at(to_vec(p), r);
+            return std::vector<double>(r, r + w.grid->nfields);
         }, py::arg("water"), py::arg("p"),
-           "The grid's density at p (0 outside the box): what the beam terms' scattering uses "
-           "(for tests).")
+           "The grid's densities at p, one per field (0 outside the box): what the beam terms' "
+           "scattering uses (for tests).")
         .def("grid_march", [](const Scene& s, int water, std::array<double, 3> o, std::array<double, 3> d,
-                              double s0, double s1, double xi, double t_stop) {
+                              double s0, std::vector<double> s1, double xi, double t_stop) {
             const Water& w = s.waters.at(water);
             if (!w.grid) throw std::invalid_argument("this water has no grid");
+            const int nf = w.grid->nfields;
+            if (int(s1.size()) != nf) throw std::invalid_argument("s1 needs one coefficient per density field");
             VoxelGrid::Cursor c(*w.grid, to_vec(o), normalize(to_vec(d)));
-            double rho = 0.0;
-            const bool hit = c.march(s0, s1, &xi, t_stop, &rho);
-            return py::make_tuple(hit, c.position(), rho, c.integral(), xi);
+            double rho[VoxelGrid::kMaxFields];
+            const bool hit = c.march(s0, s1.data(), &xi, t_stop, rho);
+            return py::make_tuple(hit, c.position(), std::vector<double>(rho, rho + nf),
+                                  std::vector<double>(c.integral(), c.integral() + nf), xi);
         }, py::arg("water"), py::arg("o"), py::arg("d"), py::arg("s0"), py::arg("s1"), py::arg("xi"),
            py::arg("t_stop"),
-           "Regular tracking along o + d t in the grid (for tests): (reached, position, density "
-           "there, int rho up to it, depth left) for the optical depth xi of s0 + s1 rho.")
+           "Regular tracking along o + d t in the grid (for tests): (reached, position, densities "
+           "there, int rho_f up to it, depth left) for the optical depth xi of "
+           "s0 + sum_f s1[f] rho_f.")
         .def("camera_medium", [](const Scene& s, int i) { return s.cameras.at(i).medium; })
         .def("radiometer_medium", [](const Scene& s, int i) { return s.radiometers.at(i).medium; })
         .def("radiometer_bins", [](const Scene& s, int i) { return s.radiometers.at(i).bins(); })

@@ -68,54 +68,73 @@ struct Water {
     double mis_wsum = 0.0;               // sum of the components' weights (its pdf)
 
     bool stratified() const { return layers.size() > 1; }
-    // 3-D IOPs over a box, or null: c(x) = c_base(z) + rho(x) c_unit (absorption and each
-    // component's b alike), with the base IOPs in the layers (one: homogeneous; several: a
-    // depth profile) and the unit ones in grid_unit.
+    // 3-D IOPs over a box, or null: c(x) = c_base(z) + sum_f rho_f(x) c_unit,f (absorption
+    // and each component's b alike) over the grid's density fields, with the base IOPs in the
+    // layers (one: homogeneous; several: a depth profile) and each field's unit ones in
+    // grid_units. Densities and their integrals come as arrays rho[0..fields).
     std::shared_ptr<VoxelGrid> grid;
-    WaterLayer grid_unit;
-    // The free paths' majorant in a grid where the density is rho: s0 + s1 rho >= b_path in
-    // every band (s0, s1: the base and unit b_path's largest over the bands and layers).
-    double grid_s0 = 0.0, grid_s1 = 0.0;
+    std::vector<WaterLayer> grid_units;  // one per field
+    // The free paths' majorant in a grid where the densities are rho: s0 + sum_f s1[f] rho_f
+    // >= b_path in every band (s0, s1[f]: the base's and field f's unit b_path's largest over
+    // the bands and layers).
+    double grid_s0 = 0.0, grid_s1[VoxelGrid::kMaxFields] = {};
     bool varying() const { return layers.size() > 1 || grid; }
-    // A grid's coefficients where its density is r: the base plus r times the unit (written
-    // into *scratch). Only what a collision's decision reads, b_path (linear in r like every
-    // coefficient, so the base's and unit's sums serve); a scattering vertex then asks for
-    // the components' b_path with local_components.
+    int grid_fields() const { return int(grid_units.size()); }
+    double grid_majorant(const double* r) const {
+        double m = grid_s0;
+        for (int f = 0; f < grid_fields(); ++f) m += grid_s1[f] * r[f];
+        return m;
+    }
+    // sum_f r[f] field f's unit coefficient (the member `what` of its WaterLayer) in band k,
+    // added to `base`.
+    double grid_add(double base, const double* r, Spectrum WaterLayer::*what, int k) const {
+        for (int f = 0; f < grid_fields(); ++f) base += r[f] * (grid_units[f].*what).v[k];
+        return base;
+    }
+    // A grid's coefficients where its densities are r: the base plus the fields' units times
+    // their densities (written into *scratch). Only what a collision's decision reads, b_path
+    // (linear in r like every coefficient, so the base's and units' sums serve); a scattering
+    // vertex then asks for the components' b_path with local_components.
     // (z: the height, for the base's layer.)
-    const WaterLayer& local_at_density(double r, double z, WaterLayer* scratch, int nb) const {
+    const WaterLayer& local_at_density(const double* r, double z, WaterLayer* scratch, int nb) const {
         const WaterLayer& B = layer_at(z);
-        if (r == 0.0) return B;
-        for (int k = 0; k < nb; ++k) scratch->b_path.v[k] = B.b_path.v[k] + r * grid_unit.b_path.v[k];
+        bool zero = true;
+        for (int f = 0; f < grid_fields(); ++f) zero = zero && r[f] == 0.0;
+        if (zero) return B;
+        for (int k = 0; k < nb; ++k) scratch->b_path.v[k] = grid_add(B.b_path.v[k], r, &WaterLayer::b_path, k);
         return *scratch;
     }
-    void local_components(double r, double z, WaterLayer* scratch, int nb) const {
+    void local_components(const double* r, double z, WaterLayer* scratch, int nb) const {
         const WaterLayer& B = layer_at(z);
         const size_t nc = B.comp_b_path.size();
         scratch->comp_b_path.resize(nc);
         for (size_t c = 0; c < nc; ++c)
-            for (int k = 0; k < nb; ++k)
-                scratch->comp_b_path[c].v[k] = B.comp_b_path[c].v[k] + r * grid_unit.comp_b_path[c].v[k];
+            for (int k = 0; k < nb; ++k) {
+                double v = B.comp_b_path[c].v[k];
+                for (int f = 0; f < grid_fields(); ++f) v += r[f] * grid_units[f].comp_b_path[c].v[k];
+                scratch->comp_b_path[c].v[k] = v;
+            }
     }
-    // Grid, a segment of length len over which the density integrates to r: its absorption
+    // Grid, a segment of length len over which the densities integrate to r: its absorption
     // optical depth added to *tau, and its attenuation exp(-c_path optical depth) into
     // t[0..nb) (no spectrum to clear: these run once or twice per path segment), per band.
     // The segment runs from height z0 to z1 (the base's layers).
-    void grid_absorption(double z0, double z1, double len, double r, int nb, Spectrum* tau) const {
+    void grid_absorption(double z0, double z1, double len, const double* r, int nb, Spectrum* tau) const {
         if (layers.size() > 1) {
             add_optical_depth(&WaterLayer::a, z0, z1, len, nb, tau);
-            for (int k = 0; k < nb; ++k) tau->v[k] += grid_unit.a.v[k] * r;
+            for (int k = 0; k < nb; ++k) tau->v[k] += grid_add(0.0, r, &WaterLayer::a, k);
             return;
         }
-        for (int k = 0; k < nb; ++k) tau->v[k] += layers[0].a.v[k] * len + grid_unit.a.v[k] * r;
+        for (int k = 0; k < nb; ++k) tau->v[k] += grid_add(layers[0].a.v[k] * len, r, &WaterLayer::a, k);
     }
-    void grid_transmittance(double z0, double z1, double len, double r, int nb, double* t) const {
+    void grid_transmittance(double z0, double z1, double len, const double* r, int nb, double* t) const {
         if (layers.size() > 1) {
             Spectrum tau;
             add_optical_depth(&WaterLayer::c_path, z0, z1, len, nb, &tau);
-            for (int k = 0; k < nb; ++k) t[k] = std::exp(-(tau.v[k] + grid_unit.c_path.v[k] * r));
+            for (int k = 0; k < nb; ++k) t[k] = std::exp(-(tau.v[k] + grid_add(0.0, r, &WaterLayer::c_path, k)));
             return;
         }
-        for (int k = 0; k < nb; ++k) t[k] = std::exp(-(layers[0].c_path.v[k] * len + grid_unit.c_path.v[k] * r));
+        for (int k = 0; k < nb; ++k) t[k] = std::exp(-grid_add(layers[0].c_path.v[k] * len, r, &WaterLayer::c_path, k));
     }
     const WaterLayer& layer_at(double z) const { return layers[layer_index(z)]; }
     int layer_index(double z) const {

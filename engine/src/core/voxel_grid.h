@@ -1,7 +1,9 @@
 // A 3-D grid of piecewise-constant densities over an axis-aligned box, stored sparsely in
 // bricks, with the walk that gridded water needs: the exact integral of the density along a
 // ray (the beams' and paths' optical depths), which also samples free paths exactly (regular
-// tracking). The IOPs the densities scale live in Water (scene.h).
+// tracking). Up to kMaxFields density fields share the lattice (e.g. sediment and CDOM, each
+// scaling IOPs of its own): one walk integrates them all. The IOPs the densities scale live
+// in Water (scene.h).
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -16,7 +18,7 @@
 
 namespace photic {
 
-// One density rho >= 0 per voxel; outside the box rho = 0. Empty space is skipped at three
+// Per voxel one density rho_f >= 0 per field; outside the box rho = 0. Empty space is skipped at three
 // levels, so that a sparse plume costs little where rays miss it: the box of the non-empty
 // voxels, bricks of B^3 voxels (only non-empty ones are stored), and per empty brick the
 // radius of the empty cube of bricks around it, which a walk crosses in one jump.
@@ -24,12 +26,16 @@ struct VoxelGrid {
     static constexpr int B = 8;        // voxels per brick edge (a power of 2)
     static constexpr int kShift = 3;   // log2(B)
     static constexpr int kClearCap = 4;  // largest empty-cube radius stored (bricks)
+    static constexpr int kMaxFields = 4;  // density fields per grid
+    static constexpr int kB3 = B * B * B;
     static constexpr float kInfF = std::numeric_limits<float>::infinity();
+    int nfields = 1;
     double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
     double cell[3] = {1, 1, 1}, icell[3] = {1, 1, 1};  // voxel size (m) and 1 / size
     int n[3] = {1, 1, 1}, nb[3] = {1, 1, 1};
-    // Non-empty bricks only, B^3 densities each (local (i, j, k) at (i * B + j) * B + k): a
-    // sparse plume takes little memory, and a ray's voxels in one brick share cache lines.
+    // Non-empty bricks only (a brick is stored where any field is > 0), nfields blocks of B^3
+    // densities each, field after field (local (i, j, k) at (i * B + j) * B + k): a sparse
+    // plume takes little memory, and a ray's voxels in one brick share cache lines.
     // Not zeroed when allocated: the build writes every voxel, on its threads, which then
     // also share first touching the pages (a dense 256^3 field: 64 MB).
     struct Floats {
@@ -52,12 +58,16 @@ struct VoxelGrid {
     std::vector<int8_t> brick_clear;
     bool occupied = false;            // any rho > 0; then the box of those voxels:
     double occ_lo[3] = {0, 0, 0}, occ_hi[3] = {0, 0, 0};
-    float rho_min = 0.f, rho_max = 0.f;
+    float rho_min[kMaxFields] = {}, rho_max[kMaxFields] = {};  // per field
+    size_t brick_floats() const { return size_t(nfields) * kB3; }
 
-    // The grid over [lo_, hi_] from densities rho[(i * n1 + j) * n2 + k] (not kept); throws
-    // std::invalid_argument for a density that is negative or not finite. Slabs of bricks
-    // along x on `threads` threads (0: all cores).
-    void build(const double* lo_, const double* hi_, const int* n_, const float* rho, int threads = 1) {
+    // The grid over [lo_, hi_] from densities rho[((f * n0 + i) * n1 + j) * n2 + k] of
+    // `fields` fields (not kept); throws std::invalid_argument for a density that is negative
+    // or not finite. Slabs of bricks along x on `threads` threads (0: all cores).
+    void build(const double* lo_, const double* hi_, const int* n_, const float* rho, int threads = 1,
+               int fields = 1) {
+        if (fields < 1 || fields > kMaxFields) throw std::invalid_argument("a grid holds 1 to 4 density fields");
+        nfields = fields;
         for (int a = 0; a < 3; ++a) {
             lo[a] = lo_[a];
             hi[a] = hi_[a];
@@ -73,55 +83,65 @@ struct VoxelGrid {
         const size_t nbricks = size_t(nb[0]) * nb[1] * nb[2];
         constexpr int M = B - 1;
         std::vector<uint8_t> brick_used(nbricks, 0);
-        struct alignas(64) Slab {  // what a slab found (a cache line each: no false sharing)
-            float lo_v = kInfF, hi_v = -kInfF;
+        const size_t nvox = size_t(n[0]) * n[1] * n[2];  // one field's
+        struct alignas(64) Slab {  // what a slab found (cache lines of its own: no false sharing)
+            float lo_v[kMaxFields], hi_v[kMaxFields];
             bool bad = false;
             int first[3] = {1 << 30, 1 << 30, 1 << 30}, last[3] = {-1, -1, -1};
+            Slab() { std::fill(lo_v, lo_v + kMaxFields, kInfF); std::fill(hi_v, hi_v + kMaxFields, -kInfF); }
         };
         std::vector<Slab> slabs(nb[0]);
-        auto rows = [&](int ib, auto&& row_fn) {  // the rows (i, j) of slab ib
+        auto rows = [&](int ib, auto&& row_fn) {  // the rows (i, j) of slab ib: field 0's
             const float* r = rho + size_t(ib) * B * n[1] * n[2];
             for (int i = ib * B; i < std::min(n[0], ib * B + B); ++i)
                 for (int j = 0; j < n[1]; ++j, r += n[2]) row_fn(i, j, r);
         };
         parallel_for(size_t(nb[0]), threads, [&](size_t ib, int) {
             Slab& sl = slabs[ib];
-            rows(int(ib), [&](int i, int j, const float* r) {
-                // The row's smallest and largest value in a loop the compiler vectorises (NaN
-                // fails both comparisons, so it is counted apart); most rows of a sparse
-                // field are all zero and end there.
-                float lo_v = r[0], hi_v = r[0];
-                int nan = 0;
-                for (int k = 0; k < n[2]; ++k) {
-                    const float v = r[k];
-                    lo_v = v < lo_v ? v : lo_v;
-                    hi_v = v > hi_v ? v : hi_v;
-                    nan += v != v;
-                }
-                if (nan || !(lo_v >= 0.f) || !std::isfinite(hi_v)) sl.bad = true;
-                sl.lo_v = std::min(sl.lo_v, lo_v);
-                sl.hi_v = std::max(sl.hi_v, hi_v);
-                if (!(hi_v > 0.f)) return;
+            rows(int(ib), [&](int i, int j, const float* r0) {
                 const size_t row = (size_t(i >> kShift) * nb[1] + (j >> kShift)) * nb[2];
-                int kfirst = -1, klast = -1;
-                for (int k = 0; k < n[2]; ++k) {
-                    if (!(r[k] > 0.f)) continue;
-                    brick_used[row + (k >> kShift)] = 1;
-                    if (kfirst < 0) kfirst = k;
-                    klast = k;
+                int kfirst = n[2], klast = -1;
+                for (int f = 0; f < nfields; ++f) {
+                    const float* r = r0 + f * nvox;
+                    // The row's smallest and largest value in a loop the compiler vectorises
+                    // (NaN fails both comparisons, so it is counted apart); most rows of a
+                    // sparse field are all zero and end there.
+                    float lo_v = r[0], hi_v = r[0];
+                    int nan = 0;
+                    for (int k = 0; k < n[2]; ++k) {
+                        const float v = r[k];
+                        lo_v = v < lo_v ? v : lo_v;
+                        hi_v = v > hi_v ? v : hi_v;
+                        nan += v != v;
+                    }
+                    if (nan || !(lo_v >= 0.f) || !std::isfinite(hi_v)) sl.bad = true;
+                    sl.lo_v[f] = std::min(sl.lo_v[f], lo_v);
+                    sl.hi_v[f] = std::max(sl.hi_v[f], hi_v);
+                    if (!(hi_v > 0.f)) continue;
+                    for (int k = 0; k < n[2]; ++k) {
+                        if (!(r[k] > 0.f)) continue;
+                        brick_used[row + (k >> kShift)] = 1;
+                        kfirst = std::min(kfirst, k);
+                        klast = std::max(klast, k);
+                    }
                 }
+                if (klast < 0) return;
                 sl.first[0] = std::min(sl.first[0], i); sl.last[0] = std::max(sl.last[0], i);
                 sl.first[1] = std::min(sl.first[1], j); sl.last[1] = std::max(sl.last[1], j);
                 sl.first[2] = std::min(sl.first[2], kfirst); sl.last[2] = std::max(sl.last[2], klast);
             });
         });
         int first[3] = {n[0], n[1], n[2]}, last[3] = {-1, -1, -1};
-        rho_min = kInfF;
-        rho_max = -kInfF;
+        std::fill(rho_min, rho_min + kMaxFields, 0.f);
+        std::fill(rho_max, rho_max + kMaxFields, 0.f);
+        std::fill(rho_min, rho_min + nfields, kInfF);
+        std::fill(rho_max, rho_max + nfields, -kInfF);
         for (const Slab& sl : slabs) {
             if (sl.bad) throw std::invalid_argument("densities must be finite and >= 0");
-            rho_min = std::min(rho_min, sl.lo_v);
-            rho_max = std::max(rho_max, sl.hi_v);
+            for (int f = 0; f < nfields; ++f) {
+                rho_min[f] = std::min(rho_min[f], sl.lo_v[f]);
+                rho_max[f] = std::max(rho_max[f], sl.hi_v[f]);
+            }
             for (int a = 0; a < 3; ++a) {
                 first[a] = std::min(first[a], sl.first[a]);
                 last[a] = std::max(last[a], sl.last[a]);
@@ -131,26 +151,27 @@ struct VoxelGrid {
         int32_t nslots = 0;
         for (size_t b = 0; b < nbricks; ++b)
             if (brick_used[b]) brick_slot[b] = nslots++;
-        bricks.allocate(size_t(nslots) * B * B * B);
+        bricks.allocate(size_t(nslots) * brick_floats());
         // Every voxel of the non-empty bricks, 0 outside the grid and where rho = 0 (or -0).
         parallel_for(size_t(nb[0]), threads, [&](size_t ib, int) {
-            for (int li = 0; li < B; ++li)
-                for (int j = 0; j < nb[1] * B; ++j) {
-                    const int i = int(ib) * B + li;
-                    const bool inside = i < n[0] && j < n[1];
-                    const float* r = inside ? rho + (size_t(i) * n[1] + j) * n[2] : nullptr;
-                    const size_t row = (ib * nb[1] + (j >> kShift)) * nb[2];
-                    const int local_ij = (li * B + (j & M)) * B;
-                    for (int kb = 0; kb < nb[2]; ++kb) {
-                        const int32_t slot = brick_slot[row + kb];
-                        if (slot < 0) continue;
-                        float* dst = &bricks[size_t(slot) * B * B * B + local_ij];
-                        for (int lk = 0; lk < B; ++lk) {
-                            const int k = kb * B + lk;
-                            dst[lk] = inside && k < n[2] && r[k] > 0.f ? r[k] : 0.f;
+            for (int f = 0; f < nfields; ++f)
+                for (int li = 0; li < B; ++li)
+                    for (int j = 0; j < nb[1] * B; ++j) {
+                        const int i = int(ib) * B + li;
+                        const bool inside = i < n[0] && j < n[1];
+                        const float* r = inside ? rho + f * nvox + (size_t(i) * n[1] + j) * n[2] : nullptr;
+                        const size_t row = (ib * nb[1] + (j >> kShift)) * nb[2];
+                        const int local_ij = f * kB3 + (li * B + (j & M)) * B;
+                        for (int kb = 0; kb < nb[2]; ++kb) {
+                            const int32_t slot = brick_slot[row + kb];
+                            if (slot < 0) continue;
+                            float* dst = &bricks[size_t(slot) * brick_floats() + local_ij];
+                            for (int lk = 0; lk < B; ++lk) {
+                                const int k = kb * B + lk;
+                                dst[lk] = inside && k < n[2] && r[k] > 0.f ? r[k] : 0.f;
+                            }
                         }
                     }
-                }
         });
         occupied = last[0] >= 0;
         for (int a = 0; a < 3 && occupied; ++a) {
@@ -196,20 +217,24 @@ struct VoxelGrid {
         }
     }
 
-    // The density at p (0 outside the box). Points outside the non-empty voxels' box or in
-    // an empty brick touch no large array.
-    double at(const Vec3& p) const {
+    // The densities at p, rho[0..nfields) (0 outside the box); false where all are 0 for
+    // certain: points outside the non-empty voxels' box or in an empty brick, which touch no
+    // large array.
+    bool at(const Vec3& p, double* rho) const {
         const double q[3] = {p.x, p.y, p.z};
         int idx[3];
+        std::fill(rho, rho + nfields, 0.0);
         for (int a = 0; a < 3; ++a) {
-            if (!(q[a] >= occ_lo[a] && q[a] <= occ_hi[a])) return 0.0;
+            if (!(q[a] >= occ_lo[a] && q[a] <= occ_hi[a])) return false;
             idx[a] = std::min(n[a] - 1, std::max(0, int((q[a] - lo[a]) * icell[a])));
         }
         const std::ptrdiff_t b = (std::ptrdiff_t(idx[0] >> kShift) * nb[1] + (idx[1] >> kShift)) * nb[2] + (idx[2] >> kShift);
-        if (brick_clear[b]) return 0.0;
+        if (brick_clear[b]) return false;
         const int32_t slot = brick_slot[b];
         constexpr int M = B - 1;
-        return bricks[size_t(slot) * B * B * B + (((idx[0] & M) * B + (idx[1] & M)) * B + (idx[2] & M))];
+        const float* v = &bricks[size_t(slot) * brick_floats() + (((idx[0] & M) * B + (idx[1] & M)) * B + (idx[2] & M))];
+        for (int f = 0; f < nfields; ++f) rho[f] = v[f * kB3];
+        return true;
     }
     // Where the rays from points towards the sun meet density: for rays from x along `up`
     // (up.z > 0) or any direction within `spread` radians of it, a map over the rays'
@@ -353,10 +378,12 @@ struct VoxelGrid {
                                 k_start = -1;
                                 continue;
                             }
-                            const float* row = &bricks[(size_t(slots[kb]) * B + li) * B * B + lj * B];
+                            const float* row = &bricks[size_t(slots[kb]) * brick_floats() + (li * B + lj) * B];
                             for (int lk = 0; lk < B; ++lk) {
                                 const int k = kb * B + lk;
-                                if (row[lk] > 0.f) {
+                                bool positive = row[lk] > 0.f;  // any field's
+                                for (int f = 1; f < nfields && !positive; ++f) positive = row[f * kB3 + lk] > 0.f;
+                                if (positive) {
                                     if (k_start < 0) k_start = k;
                                 } else if (k_start >= 0) {
                                     run(i, j, k_start, k - 1);
@@ -395,9 +422,9 @@ struct VoxelGrid {
         return a1 > a0;
     }
 
-    // The integral of rho along the ray o + d t from t = 0, walked once however often it is
-    // asked: value(t) for increasing t continues the walk where the last call stopped, and
-    // march() samples free paths exactly along the same walk (regular tracking). One voxel
+    // The integral of each field's rho along the ray o + d t from t = 0, walked once however
+    // often it is asked: value(t) for increasing t continues the walk where the last call
+    // stopped, and march() samples free paths exactly along the same walk (regular tracking). One voxel
     // DDA over the non-empty voxels' box, in a tight loop per non-empty brick; an empty
     // brick's clear cube is crossed in one jump. (Walking bricks, then each brick's voxels
     // with a DDA set up per brick, cost 1.5 times as much: most rays cross only a few voxels
@@ -411,25 +438,26 @@ struct VoxelGrid {
             box_ = g.clip_occupied(o_, inv_, &t0_, &t1_);
             if (!box_) t0_ = t1_ = kInf;
         }
-        // int_0^t rho(o + d s) ds, for t at or beyond the position (else the value there).
-        double value(double t) {
-            double xi = kInf, rho;
+        // int_0^t rho_f(o + d s) ds per field, for t at or beyond the position (else the
+        // values there).
+        const double* value(double t) {
+            double xi = kInf, rho[kMaxFields];
             hit_ = false;
-            if (t > t_) walk<false>(t, 0.0, 0.0, &xi, &rho);
+            if (t > t_) walk<false>(t, 0.0, nullptr, &xi, rho);
             return sum_;
         }
-        // Regular tracking of the coefficient s0 + s1 rho (>= 0) from the position on: if its
-        // optical depth reaches *xi before t_stop, the position moves there, *rho is the
-        // density there and the result is true; else the position moves to t_stop, *xi loses
-        // the depth passed and the result is false.
-        bool march(double s0, double s1, double* xi, double t_stop, double* rho) {
-            *rho = 0.0;
+        // Regular tracking of the coefficient s0 + sum_f s1[f] rho_f (>= 0) from the position
+        // on: if its optical depth reaches *xi before t_stop, the position moves there,
+        // rho[0..nfields) are the densities there and the result is true; else the position
+        // moves to t_stop, *xi loses the depth passed and the result is false.
+        bool march(double s0, const double* s1, double* xi, double t_stop, double* rho) {
+            std::fill(rho, rho + g_->nfields, 0.0);
             hit_ = false;
             if (t_stop > t_) walk<true>(t_stop, s0, s1, xi, rho);
             return hit_;
         }
         double position() const { return t_; }
-        double integral() const { return sum_; }
+        const double* integral() const { return sum_; }
 
      private:
         // The 3-D DDA's start: the voxel of a point just inside the clipped ray (robust at
@@ -454,7 +482,16 @@ struct VoxelGrid {
             started_ = true;
         }
         template <bool kTrack>
-        void walk(double te, double s0, double s1, double* xi, double* rho_hit);
+        void walk(double te, double s0, const double* s1, double* xi, double* rho_hit) {
+            switch (g_->nfields) {  // a walk compiled per number of fields (one: the common case)
+                case 1: walk_fields<kTrack, 1>(te, s0, s1, xi, rho_hit); break;
+                case 2: walk_fields<kTrack, 2>(te, s0, s1, xi, rho_hit); break;
+                case 3: walk_fields<kTrack, 3>(te, s0, s1, xi, rho_hit); break;
+                default: walk_fields<kTrack, kMaxFields>(te, s0, s1, xi, rho_hit); break;
+            }
+        }
+        template <bool kTrack, int F>
+        void walk_fields(double te, double s0, const double* s1, double* xi, double* rho_hit);
         const VoxelGrid* g_;
         double o_[3], d_[3], inv_[3];
         bool started_ = false;  // the DDA is set up
@@ -462,23 +499,31 @@ struct VoxelGrid {
         bool hit_ = false;  // march: the depth was reached
         int i_ = 0, j_ = 0, k_ = 0, si_ = 0, sj_ = 0, sk_ = 0;
         double tx_ = 0, ty_ = 0, tz_ = 0, dx_ = 0, dy_ = 0, dz_ = 0;
-        double t0_ = kInf, t1_ = kInf, t_ = 0.0, sum_ = 0.0;
+        double t0_ = kInf, t1_ = kInf, t_ = 0.0;
+        double sum_[kMaxFields] = {};
     };
 
-    // int rho dl along the segment from p0 to p1 (length len).
-    double integral(const Vec3& p0, const Vec3& p1, double len) const {
-        if (!(len > 0.0)) return 0.0;
-        return Cursor(*this, p0, (p1 - p0) * (1.0 / len)).value(len);
+    // int rho_f dl along the segment from p0 to p1 (length len) into out[0..nfields).
+    void integral(const Vec3& p0, const Vec3& p1, double len, double* out) const {
+        std::fill(out, out + nfields, 0.0);
+        if (!(len > 0.0)) return;
+        Cursor c(*this, p0, (p1 - p0) * (1.0 / len));
+        std::copy_n(c.value(len), nfields, out);
     }
 };
 
-template <bool kTrack>
-void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, double* rho_hit) {
+template <bool kTrack, int F>
+void VoxelGrid::Cursor::walk_fields(double te, double s0, const double* s1_in, double* xi_io, double* rho_hit) {
     // Density-free stretches (before and after the box, clear cubes) and voxels of constant
     // density: each adds its integral, and in tracking its optical depth, until te or, in
     // tracking, the sampled depth xi is reached inside one (then the position stops there).
+    // F fields: F sums, and in tracking the coefficient s0 + sum_f s1[f] rho_f.
     double xi = *xi_io;
-    double t = t_, sum = sum_;
+    double t = t_, sum[F], s1[F];
+    for (int f = 0; f < F; ++f) {
+        sum[f] = sum_[f];
+        s1[f] = kTrack ? s1_in[f] : 0.0;
+    }
     bool done = false;
     auto empty_stretch = [&](double tb) {  // [t, tb) without density: true if xi is reached
         if (kTrack) {
@@ -549,32 +594,35 @@ void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, dou
             // Leaving the grid is checked only where the ray leaves a brick (6 % faster beam
             // walks): inside a partial brick beyond the grid's faces the stored densities are
             // 0, and the walk ends at the box's exit t1_ anyway.
-            const float* v = &g.bricks[size_t(g.brick_slot[b]) * B * B * B];
+            const float* v = &g.bricks[size_t(g.brick_slot[b]) * (F * kB3)];
             bool stop = false;
-            // The voxel's part [t, tb) with density rho: true if the walk stops in it.
-            auto voxel = [&](double rho, double tn) {
+            // The voxel's part [t, tb) with densities rho: true if the walk stops in it.
+            auto voxel = [&](const double* rho, double tn) {
                 const double tb = std::min(tn, tv);
                 if (kTrack) {
-                    const double sig = s0 + s1 * rho, gain = sig * (tb - t);
+                    double sig = s0;
+                    for (int f = 0; f < F; ++f) sig += s1[f] * rho[f];
+                    const double gain = sig * (tb - t);
                     if (gain >= xi && sig > 0.0) {
                         const double tc = t + xi / sig;
-                        sum += rho * (tc - t);
+                        for (int f = 0; f < F; ++f) sum[f] += rho[f] * (tc - t);
                         t = tc;
                         xi = 0.0;
                         hit_ = true;
-                        *rho_hit = rho;
+                        for (int f = 0; f < F; ++f) rho_hit[f] = rho[f];
                         return true;
                     }
                     xi -= gain;
                 }
-                sum += rho * (tb - t);
+                for (int f = 0; f < F; ++f) sum[f] += rho[f] * (tb - t);
                 t = tb;
                 return tn >= tv;
             };
             // The voxel's offset in the brick, moved along with the indices.
             int off = (((i & M) << kShift) + (j & M)) * B + (k & M);
             for (;;) {
-                const double rho = v[off];
+                double rho[F];
+                for (int f = 0; f < F; ++f) rho[f] = v[off + f * kB3];
                 if (tz <= tx && tz <= ty) {
                     // A run along z in one go: this voxel and the next c, whose exit faces all
                     // come before the next x and y faces and the walk's end, within the brick
@@ -585,13 +633,18 @@ void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, dou
                     const int c = std::min(left, int((std::min(std::min(tx, ty), tv) - tz) * idz));
                     bool run_taken = false;
                     if (c > 0) {
-                        double run = 0.0;
-                        for (int m = 1; m <= c; ++m) run += v[off + m * sk];
-                        const double r = rho * (tz - t) + run * dz, te_run = tz + c * dz;
-                        const double gain = kTrack ? s0 * (te_run - t) + s1 * r : 0.0;
+                        double r[F];
+                        const double te_run = tz + c * dz;
+                        double gain = kTrack ? s0 * (te_run - t) : 0.0;
+                        for (int f = 0; f < F; ++f) {
+                            double run = 0.0;
+                            for (int m = 1; m <= c; ++m) run += v[off + f * kB3 + m * sk];
+                            r[f] = rho[f] * (tz - t) + run * dz;
+                            if (kTrack) gain += s1[f] * r[f];
+                        }
                         if (!kTrack || gain < xi) {
                             if (kTrack) xi -= gain;
-                            sum += r;
+                            for (int f = 0; f < F; ++f) sum[f] += r[f];
                             t = te_run;
                             k += (c + 1) * sk; tz = t + dz; off += (c + 1) * sk;
                             run_taken = true;
@@ -629,7 +682,7 @@ void VoxelGrid::Cursor::walk(double te, double s0, double s1, double* xi_io, dou
     }
     if (!done && t >= t1_ && t < te) empty_stretch(te);  // beyond the box
     t_ = t;
-    sum_ = sum;
+    for (int f = 0; f < F; ++f) sum_[f] = sum[f];
     *xi_io = xi;
 }
 

@@ -84,12 +84,19 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
         for z_top, layer in zip(np.asarray(base.z_top)[1:] if len(layers) > 1 else [], layers[1:]):
             b = [sel(c.b) for c in layer.scattering] or [np.zeros(nb)]
             core.add_water_layer(wi, float(z_top), sel(layer.absorption), b)
-        if grid is not None:  # 3-D IOPs: base + density x unit over the box
+        if grid is not None:  # 3-D IOPs: base + each field's density x its unit over the box
             origin = np.asarray(grid.origin, dtype=np.float64)
-            b = [sel(c.b) for c in grid.unit.scattering] or [np.zeros(nb)]
-            core.set_water_grid(wi, origin.tolist(), (origin + grid.size).tolist(),
-                                np.ascontiguousarray(grid.density, dtype=np.float32),
-                                sel(grid.unit.absorption), b,
+            units = grid.units()
+            densities = grid.densities()
+            if len(densities) == 1:  # (a view: no copy of a large field)
+                rho = np.ascontiguousarray(densities[0], dtype=np.float32)[np.newaxis]
+            else:
+                rho = np.empty((len(densities),) + tuple(densities[0].shape), dtype=np.float32)
+                for f, dens in enumerate(densities):
+                    rho[f] = dens
+            core.set_water_grid(wi, origin.tolist(), (origin + grid.size).tolist(), rho,
+                                [sel(u.absorption) for u in units],
+                                [[sel(c.b) for c in u.scattering] or [np.zeros(nb)] for u in units],
                                 threads=int(scene.settings.threads if threads is None else threads))
         water_index[w.name] = wi
 

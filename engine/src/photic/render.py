@@ -96,8 +96,10 @@ def optical_depth_scale(scene: Scene) -> float:
             top = float(z.max())
         if isinstance(w.iops, IOPGrid):  # 3-D: bounded by the densest voxel everywhere
             g = w.iops
-            rmax = float(np.max(g.density)) if np.size(g.density) else 0.0
-            unit = rmax * (np.asarray(g.unit.absorption) + np.asarray(g.unit.total_scattering))
+            unit = 0.0
+            for rho, u in zip(g.densities(), g.units()):
+                rmax = float(np.max(rho)) if np.size(rho) else 0.0
+                unit = unit + rmax * (np.asarray(u.absorption) + np.asarray(u.total_scattering))
             for b in (g.iops.layers if isinstance(g.iops, IOPProfile) else [g.iops]):
                 c = float(np.max(np.asarray(b.absorption) + np.asarray(b.total_scattering) + unit))
                 tau = max(tau, c * depth if c > 0 else 0.0)

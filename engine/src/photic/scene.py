@@ -31,7 +31,7 @@ import numpy as np
 
 __all__ = [
     "FORMAT_VERSION", "PHASE_FUNCTION_PARAMS", "QUANTITIES", "SceneError", "Band", "Material",
-    "PhaseFunction", "ScatteringComponent", "IOPs", "IOPProfile", "IOPGrid", "TriangleMesh", "MeshObject",
+    "PhaseFunction", "ScatteringComponent", "IOPs", "IOPProfile", "IOPGrid", "GridField", "TriangleMesh", "MeshObject",
     "OceanSurface", "SurfaceRoughness", "WaterBody", "Sun", "Sky", "Camera", "Radiometer", "RadiometerArray",
     "Settings", "Scene", "check_closed_mesh", "load_scene", "save_scene", "scene_schema",
 ]
@@ -348,6 +348,37 @@ class IOPProfile(_ArrayEq):
 
 
 @dataclass(eq=False)
+class GridField(_ArrayEq):
+    """A further density field of an ``IOPGrid`` on the grid's own voxels, for a constituent
+    that does not follow the first one (CDOM beside sediment, a phytoplankton bloom): where
+    its ``density`` (the same shape as the grid's) is ``rho_f``, ``rho_f * unit`` is added to
+    the IOPs. ``unit`` has the grid's components, ``a`` and ``b >= 0``. ``key``: the name of the
+    array in the grid's ``.npz`` file it was read from (a saved scene refers to it).
+
+    Examples
+    --------
+    >>> water = PhaseFunction("pure_water")
+    >>> GridField("cdom", IOPs([0.3], [ScatteringComponent([0.0], water)]), np.zeros((4, 4, 4)))  # doctest: +ELLIPSIS
+    GridField(name='cdom', ...)
+    """
+
+    name: str
+    unit: IOPs
+    density: np.ndarray
+    key: str | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.density, np.ndarray):
+            try:
+                self.density = np.array(self.density, dtype=np.float32)
+            except (TypeError, ValueError):
+                pass
+
+
+MAX_GRID_FIELDS = 4  # density fields per grid: the first and up to three more
+
+
+@dataclass(eq=False)
 class IOPGrid(_ArrayEq):
     """3-D IOPs: a regular grid of piecewise-constant voxels over the box ``origin`` to
     ``origin + size`` (m, world axes). Each voxel holds one density ``rho >= 0`` (float32;
@@ -360,6 +391,11 @@ class IOPGrid(_ArrayEq):
     ``b >= 0`` (b = 0 where a component is absent from the plume). Memory: 4 bytes per voxel
     (256^3: 64 MiB). ``file``: the ``.npz`` the density was read from (key ``density``), kept so
     that a saved scene refers to it instead of writing the voxels inline.
+
+    ``extra_fields``: up to three further density fields (``GridField``) on the same voxels,
+    each with unit IOPs of its own; the IOPs are then ``iops + rho * unit + sum_f rho_f
+    unit_f``. One walk through the voxels integrates all fields, so each costs far less than a
+    grid of its own (4 more bytes per voxel).
 
     Examples
     --------
@@ -376,6 +412,7 @@ class IOPGrid(_ArrayEq):
     size: np.ndarray
     density: np.ndarray
     file: str | None = None
+    extra_fields: list[GridField] = field(default_factory=list)
 
     def __post_init__(self):
         self.origin = _as_floats(self.origin)
@@ -386,14 +423,24 @@ class IOPGrid(_ArrayEq):
             except (TypeError, ValueError):
                 pass
 
-    def density_at(self, p) -> float:
-        """The density at point ``p`` (m; 0 outside the box)."""
+    def density_at(self, p, field: int = 0) -> float:
+        """The density of field ``field`` (0: ``density``, f: ``extra_fields[f - 1]``) at point
+        ``p`` (m; 0 outside the box)."""
         q = (np.asarray(p, dtype=np.float64) - self.origin) / self.size
         if np.any(q < 0) or np.any(q > 1):
             return 0.0
-        n = np.asarray(self.density.shape)
+        rho = self.density if field == 0 else self.extra_fields[field - 1].density
+        n = np.asarray(rho.shape)
         idx = np.minimum((q * n).astype(int), n - 1)
-        return float(self.density[tuple(idx)])
+        return float(rho[tuple(idx)])
+
+    def units(self) -> list[IOPs]:
+        """Every field's unit IOPs, the first field's first."""
+        return [self.unit] + [f.unit for f in self.extra_fields]
+
+    def densities(self) -> list[np.ndarray]:
+        """Every field's densities, the first field's first."""
+        return [self.density] + [f.density for f in self.extra_fields]
 
 
 @dataclass(eq=False)
@@ -1044,31 +1091,45 @@ def _validate_profile(label: str, profile: IOPProfile, nbands: int,
 
 def _validate_grid(label: str, grid: IOPGrid, nbands: int) -> None:
     """Base and unit IOPs with the same components, unit coefficients >= 0, a finite box of
-    positive size, and a 3-D array of finite densities >= 0."""
+    positive size, and 3-D arrays of finite densities >= 0 (every field's of one shape)."""
     if isinstance(grid.iops, IOPProfile):  # a depth profile under the grid
         _validate_profile(label, grid.iops, nbands, "iop_grid.base.iop_profile")
         ref_iops, ref_name = grid.iops.layers[0], "iop_grid.base.iop_profile.layers[0].iops"
     else:
         _validate_iops(label, grid.iops, nbands, "iop_grid.base.iops")
         ref_iops, ref_name = grid.iops, "iop_grid.base.iops"
-    _validate_iops(label, grid.unit, nbands, "iop_grid.unit.iops")
-    fld = "iop_grid.unit.iops.scattering"
-    if len(grid.unit.scattering) != len(ref_iops.scattering):
-        raise SceneError(label, fld, f"has {len(grid.unit.scattering)} component(s) but "
-                                     f"{ref_name} has {len(ref_iops.scattering)}: the unit "
-                                     f"IOPs need the same components (phase functions), with "
-                                     f"b = 0 where absent")
-    for j, (mine, ref) in enumerate(zip(grid.unit.scattering, ref_iops.scattering)):
-        if mine.phase != ref.phase:
-            raise SceneError(label, f"{fld}[{j}].phase",
-                             f"is {_phase_text(mine.phase)} but {ref_name} component {j} is "
-                             f"{_phase_text(ref.phase)}")
-        if np.any(np.asarray(mine.b) < 0):
-            raise SceneError(label, f"{fld}[{j}].b", f"must be >= 0 in every band, got "
-                                                     f"{_show(mine.b)}")
-    if np.any(np.asarray(grid.unit.absorption) < 0):
-        raise SceneError(label, "iop_grid.unit.iops.absorption", f"must be >= 0 in every band, got "
-                                                            f"{_show(grid.unit.absorption)}")
+    extra = grid.extra_fields
+    if not isinstance(extra, list) or not all(isinstance(f, GridField) for f in extra):
+        raise SceneError(label, "iop_grid.fields", f"must be a list of GridField, got {_show(extra)}")
+    if len(extra) > MAX_GRID_FIELDS - 1:
+        raise SceneError(label, "iop_grid.fields", f"has {len(extra)} fields: a grid holds at most "
+                                                   f"{MAX_GRID_FIELDS - 1} beside its 'density'")
+    names = [f.name for f in extra]
+    for i, f in enumerate(extra):
+        if not isinstance(f.name, str) or not f.name or f.name in names[:i]:
+            raise SceneError(label, f"iop_grid.fields[{i}].name",
+                             f"must be a non-empty name of its own, got {f.name!r}")
+    units = [("iop_grid.unit.iops", grid.unit)] + [(f"iop_grid.fields[{i}].unit.iops", f.unit)
+                                                   for i, f in enumerate(extra)]
+    for prefix, unit in units:
+        _validate_iops(label, unit, nbands, prefix)
+        fld = f"{prefix}.scattering"
+        if len(unit.scattering) != len(ref_iops.scattering):
+            raise SceneError(label, fld, f"has {len(unit.scattering)} component(s) but "
+                                         f"{ref_name} has {len(ref_iops.scattering)}: the unit "
+                                         f"IOPs need the same components (phase functions), with "
+                                         f"b = 0 where absent")
+        for j, (mine, ref) in enumerate(zip(unit.scattering, ref_iops.scattering)):
+            if mine.phase != ref.phase:
+                raise SceneError(label, f"{fld}[{j}].phase",
+                                 f"is {_phase_text(mine.phase)} but {ref_name} component {j} is "
+                                 f"{_phase_text(ref.phase)}")
+            if np.any(np.asarray(mine.b) < 0):
+                raise SceneError(label, f"{fld}[{j}].b", f"must be >= 0 in every band, got "
+                                                         f"{_show(mine.b)}")
+        if np.any(np.asarray(unit.absorption) < 0):
+            raise SceneError(label, f"{prefix}.absorption", f"must be >= 0 in every band, got "
+                                                            f"{_show(unit.absorption)}")
     for fld, v in (("origin", grid.origin), ("size", grid.size)):
         if (not isinstance(v, np.ndarray) or v.shape != (3,) or v.dtype.kind not in "fiu"
                 or not np.all(np.isfinite(v))):
@@ -1077,17 +1138,21 @@ def _validate_grid(label: str, grid: IOPGrid, nbands: int) -> None:
     if not np.all(grid.size > 0):
         raise SceneError(label, "iop_grid.size", f"must be > 0 along every axis, got "
                                                  f"{_show(grid.size)}")
-    d = grid.density
-    if not isinstance(d, np.ndarray) or d.ndim != 3 or d.dtype.kind not in "fiu" or 0 in d.shape:
-        shape = f"shape {d.shape}" if isinstance(d, np.ndarray) else _show(d)
-        raise SceneError(label, "iop_grid.density", f"must be a non-empty 3-D array of numbers "
-                                                    f"(nx, ny, nz), got {shape}")
-    # min and max pass over the array without temporaries (a NaN makes both NaN); only a bad
-    # array is searched for its first bad voxel
-    if d.size and not (d.min() >= 0 and np.isfinite(d.max())):
-        i = tuple(int(x) for x in np.argwhere(~(np.isfinite(d) & (d >= 0)))[0])
-        raise SceneError(label, f"iop_grid.density{list(i)}", f"must be finite and >= 0, got "
-                                                             f"{_num(float(d[i]))}")
+    for fld, d in [("iop_grid.density", grid.density)] + [(f"iop_grid.fields[{i}].density", f.density)
+                                                          for i, f in enumerate(extra)]:
+        if not isinstance(d, np.ndarray) or d.ndim != 3 or d.dtype.kind not in "fiu" or 0 in d.shape:
+            shape = f"shape {d.shape}" if isinstance(d, np.ndarray) else _show(d)
+            raise SceneError(label, fld, f"must be a non-empty 3-D array of numbers "
+                                         f"(nx, ny, nz), got {shape}")
+        if d.shape != grid.density.shape:
+            raise SceneError(label, fld, f"has shape {d.shape} but iop_grid.density has "
+                                         f"{grid.density.shape}: the fields share the grid's voxels")
+        # min and max pass over the array without temporaries (a NaN makes both NaN); only a
+        # bad array is searched for its first bad voxel
+        if d.size and not (d.min() >= 0 and np.isfinite(d.max())):
+            i = tuple(int(x) for x in np.argwhere(~(np.isfinite(d) & (d >= 0)))[0])
+            raise SceneError(label, f"{fld}{list(i)}", f"must be finite and >= 0, got "
+                                                       f"{_num(float(d[i]))}")
 
 
 def _phase_text(p: PhaseFunction) -> str:
@@ -1540,49 +1605,77 @@ def _read_profile(label: str, d: dict, bands: list, base_dir: Path,
 
 def _read_grid(label: str, d: dict, bands: list, base_dir: Path) -> IOPGrid:
     """Base and unit IOPs (explicit or from a model), the box, and the density: inline nested
-    lists or the key 'density' of a numpy .npz 'file' (relative to the scene file)."""
-    def iops(key):
-        if key == "base" and "iop_profile" in d[key]:
-            return _read_profile(label, d[key]["iop_profile"], bands, base_dir,
-                                 "iop_grid.base.iop_profile")
-        if "iop_model" in d[key]:
+    lists or the key 'density' of a numpy .npz 'file' (relative to the scene file). Further
+    density fields in 'fields': each a 'name', its 'unit' IOPs and its densities, inline
+    ('density') or the array 'key' of the grid's .npz file."""
+    def iops(spec, where):
+        if "iop_model" in spec:
             from .iop_models import iops_from_model
-            return iops_from_model(d[key]["iop_model"], bands, obj=label,
-                                   prefix=f"iop_grid.{key}.iop_model.", base_dir=base_dir)
-        return _read_iops(label, d[key]["iops"], len(bands), f"iop_grid.{key}.iops")
-    base, unit = iops("base"), iops("unit")
+            return iops_from_model(spec["iop_model"], bands, obj=label,
+                                   prefix=f"{where}.iop_model.", base_dir=base_dir)
+        return _read_iops(label, spec["iops"], len(bands), f"{where}.iops")
+    extra = d.get("fields", [])
+    if not isinstance(extra, list) or not all(isinstance(f, dict) for f in extra):
+        raise SceneError(label, "iop_grid.fields", "must be a list of objects {name, unit, "
+                                                   "density or key}")
+    if "iop_profile" in d["base"]:
+        base = _read_profile(label, d["base"]["iop_profile"], bands, base_dir, "iop_grid.base.iop_profile")
+    else:
+        base = iops(d["base"], "iop_grid.base")
+    units = [iops(d["unit"], "iop_grid.unit")] + [iops(f["unit"], f"iop_grid.fields[{i}].unit")
+                                                  for i, f in enumerate(extra)]
+    modelled = any("iop_model" in u for u in [d["unit"]] + [f["unit"] for f in extra])
     if isinstance(base, IOPProfile):
-        modelled = "iop_model" in d["unit"] or any(
-            "iop_model" in x for x in d["base"]["iop_profile"].get("layers", []))
-        if modelled:  # every layer and the unit on one set of components
+        modelled = modelled or any("iop_model" in x for x in d["base"]["iop_profile"].get("layers", []))
+        if modelled:  # every layer and unit on one set of components
             from .profiles import align_components
-            *layers, unit = align_components(list(base.layers) + [unit])
-            base = IOPProfile(base.z_top, layers)
-    elif "iop_model" in d["base"] or "iop_model" in d["unit"]:  # one set of components for both
+            aligned = align_components(list(base.layers) + units)
+            base, units = IOPProfile(base.z_top, aligned[:len(base.layers)]), aligned[len(base.layers):]
+    elif modelled or "iop_model" in d["base"]:  # one set of components for all
         from .profiles import align_components
-        base, unit = align_components([base, unit])
+        base, *units = align_components([base] + units)
     if ("file" in d) == ("density" in d):
         raise SceneError(label, "iop_grid", "give either 'density' (nested lists) or 'file' "
                                             "(a .npz holding 'density')")
     file = None
+    arrays = {}  # the .npz file's arrays that the fields name
     if "file" in d:
         path = base_dir / d["file"]
+        wanted = ["density"] + [f["key"] for f in extra if "key" in f]
         try:
             with np.load(path) as z:
-                if "density" not in z:
-                    raise SceneError(label, "iop_grid.file", f"{path} has no array 'density' "
-                                                             f"(has: {', '.join(z.files) or 'none'})")
-                density = np.asarray(z["density"])
+                for i, key in enumerate(wanted):
+                    if key not in z:
+                        fld = "iop_grid.file" if i == 0 else f"iop_grid.fields[{i - 1}].key"
+                        raise SceneError(label, fld, f"{path} has no array {key!r} "
+                                                     f"(has: {', '.join(z.files) or 'none'})")
+                    arrays[key] = np.asarray(z[key])
         except (OSError, ValueError) as e:
             raise SceneError(label, "iop_grid.file", f"cannot read {path}: {e}") from None
+        density = arrays["density"]
         file = str(path.resolve())
     else:
-        try:
-            density = np.array(d["density"], dtype=np.float32)
-        except (TypeError, ValueError):
-            raise SceneError(label, "iop_grid.density", "must be nested lists of numbers "
-                                                        "[x][y][z] with equal lengths") from None
-    return IOPGrid(base, unit, d["origin"], d["size"], density, file)
+        density = _read_density(label, d["density"], "iop_grid.density")
+    fields = []
+    for i, (f, unit) in enumerate(zip(extra, units[1:])):
+        where = f"iop_grid.fields[{i}]"
+        if ("key" in f) == ("density" in f):
+            raise SceneError(label, where, "give either 'density' (nested lists) or 'key' (an "
+                                           "array of the grid's .npz 'file')")
+        if "key" in f and file is None:
+            raise SceneError(label, f"{where}.key", "names an array of the grid's .npz 'file', "
+                                                     "but the grid has no 'file'")
+        rho = arrays[f["key"]] if "key" in f else _read_density(label, f["density"], f"{where}.density")
+        fields.append(GridField(f["name"], unit, rho, f.get("key")))
+    return IOPGrid(base, units[0], d["origin"], d["size"], density, file, fields)
+
+
+def _read_density(label: str, value: Any, fld: str) -> np.ndarray:
+    try:
+        return np.array(value, dtype=np.float32)
+    except (TypeError, ValueError):
+        raise SceneError(label, fld, "must be nested lists of numbers [x][y][z] with equal "
+                                     "lengths") from None
 
 
 def _read_water(label: str, d: dict, bands: list, base_dir: Path) -> WaterBody:
@@ -1839,6 +1932,12 @@ def _water_to_dict(w: WaterBody) -> dict:
             d["iop_grid"]["file"] = g.file
         else:
             d["iop_grid"]["density"] = np.asarray(g.density, dtype=np.float64).tolist()
+        if g.extra_fields:
+            d["iop_grid"]["fields"] = [
+                {"name": f.name, "unit": {"iops": _iops_to_dict(f.unit)},
+                 **({"key": f.key} if f.key is not None and g.file is not None
+                    else {"density": np.asarray(f.density, dtype=np.float64).tolist()})}
+                for f in g.extra_fields]
     else:
         d["iops"] = _iops_to_dict(w.iops)
     if w.type == "mesh":
