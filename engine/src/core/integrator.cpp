@@ -211,7 +211,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 if (w.grid) {
                     for (;;) {  // on to the collision, reading the integral at t_beam on the way
                         if (t_beam >= 0.0 && !beam_read && t_beam <= gcursor->position()) {
-                            std::copy_n(gcursor->integral(), w.grid_fields(), r_beam);
+                            std::copy_n(gcursor->integral(), VoxelGrid::kMaxFields, r_beam);
                             beam_read = true;
                         }
                         const bool to_beam = t_beam >= 0.0 && !beam_read;
@@ -233,7 +233,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 double r_end[VoxelGrid::kMaxFields] = {};
                 const bool end = t_end < kInf;
                 const bool beam = t_beam >= 0.0 && !beam_read;
-                if (beam && (!end || t_beam <= t_end)) std::copy_n(gcursor->value(t_beam), nf, r_beam);
+                if (beam && (!end || t_beam <= t_end)) std::copy_n(gcursor->value(t_beam), VoxelGrid::kMaxFields, r_beam);
                 if (end && t_end < gcursor->position()) {
                     // Path tracing walked on to a tentative collision beyond the surface at
                     // t_end: the part behind it walked again, backwards from the surface.
@@ -241,9 +241,9 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     const double* behind = back.value(gcursor->position() - t_end);
                     for (int f = 0; f < nf; ++f) r_end[f] = gcursor->integral()[f] - behind[f];
                 } else if (end) {
-                    std::copy_n(gcursor->value(t_end), nf, r_end);
+                    std::copy_n(gcursor->value(t_end), VoxelGrid::kMaxFields, r_end);
                 }
-                if (beam && end && t_beam > t_end) std::copy_n(gcursor->value(t_beam), nf, r_beam);
+                if (beam && end && t_beam > t_end) std::copy_n(gcursor->value(t_beam), VoxelGrid::kMaxFields, r_beam);
                 if (t_beam >= 0.0) {
                     double att[kMaxBands];
                     w.grid_transmittance(o.z, o.z + d.z * t_beam, t_beam, r_beam, nb, att);

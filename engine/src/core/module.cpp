@@ -262,6 +262,7 @@ PYBIND11_MODULE(_core, m) {
                 g->build(lo.data(), hi.data(), n, rho.data(), threads, nf);  // checks the densities
             }
             w.grid_units = std::move(units);
+            w.grid_nf = nf;
             w.grid = g;
         }, py::arg("water"), py::arg("lo"), py::arg("hi"), py::arg("density"), py::arg("absorption"),
            py::arg("scattering"), py::arg("threads") = 0,

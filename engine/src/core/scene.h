@@ -74,12 +74,13 @@ struct Water {
     // grid_units. Densities and their integrals come as arrays rho[0..fields).
     std::shared_ptr<VoxelGrid> grid;
     std::vector<WaterLayer> grid_units;  // one per field
+    int grid_nf = 0;                     // their number (read per voxel step: a plain int)
     // The free paths' majorant in a grid where the densities are rho: s0 + sum_f s1[f] rho_f
     // >= b_path in every band (s0, s1[f]: the base's and field f's unit b_path's largest over
     // the bands and layers).
     double grid_s0 = 0.0, grid_s1[VoxelGrid::kMaxFields] = {};
     bool varying() const { return layers.size() > 1 || grid; }
-    int grid_fields() const { return int(grid_units.size()); }
+    int grid_fields() const { return grid_nf; }
     double grid_majorant(const double* r) const {
         double m = grid_s0;
         for (int f = 0; f < grid_fields(); ++f) m += grid_s1[f] * r[f];

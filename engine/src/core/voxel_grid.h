@@ -219,11 +219,12 @@ struct VoxelGrid {
 
     // The densities at p, rho[0..nfields) (0 outside the box); false where all are 0 for
     // certain: points outside the non-empty voxels' box or in an empty brick, which touch no
-    // large array.
+    // large array. (Arrays of densities or their integrals passed to the grid have
+    // kMaxFields entries: fixed-size copies compile to a few moves, not library calls.)
     bool at(const Vec3& p, double* rho) const {
         const double q[3] = {p.x, p.y, p.z};
         int idx[3];
-        std::fill(rho, rho + nfields, 0.0);
+        std::fill(rho, rho + kMaxFields, 0.0);
         for (int a = 0; a < 3; ++a) {
             if (!(q[a] >= occ_lo[a] && q[a] <= occ_hi[a])) return false;
             idx[a] = std::min(n[a] - 1, std::max(0, int((q[a] - lo[a]) * icell[a])));
@@ -451,7 +452,7 @@ struct VoxelGrid {
         // rho[0..nfields) are the densities there and the result is true; else the position
         // moves to t_stop, *xi loses the depth passed and the result is false.
         bool march(double s0, const double* s1, double* xi, double t_stop, double* rho) {
-            std::fill(rho, rho + g_->nfields, 0.0);
+            std::fill(rho, rho + kMaxFields, 0.0);
             hit_ = false;
             if (t_stop > t_) walk<true>(t_stop, s0, s1, xi, rho);
             return hit_;
@@ -503,12 +504,13 @@ struct VoxelGrid {
         double sum_[kMaxFields] = {};
     };
 
-    // int rho_f dl along the segment from p0 to p1 (length len) into out[0..nfields).
+    // int rho_f dl along the segment from p0 to p1 (length len) into out[0..nfields) (and 0
+    // up to kMaxFields).
     void integral(const Vec3& p0, const Vec3& p1, double len, double* out) const {
-        std::fill(out, out + nfields, 0.0);
+        std::fill(out, out + kMaxFields, 0.0);
         if (!(len > 0.0)) return;
         Cursor c(*this, p0, (p1 - p0) * (1.0 / len));
-        std::copy_n(c.value(len), nfields, out);
+        std::copy_n(c.value(len), kMaxFields, out);
     }
 };
 
