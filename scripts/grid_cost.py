@@ -18,6 +18,9 @@ renderer's own time (building the grid and rendering, not reading and validating
 IOPs, base + mean(rho) x unit, with the grid's components) and compares the grid with it: the
 homogeneous render that differs from the grid's in the grid alone (the plume's extra
 scattering and phase functions are in both).
+``--cdom`` also renders each grid with a second density field on its voxels (a CDOM-like
+absorber spread wider than the first field: a box blur over n/16 voxels across) and compares it
+with the one-field grid: the cost of a further field.
 ``--bands N`` renders N bands with the same IOPs in each (one geometric path serves them all,
 as in spectral scenes). ``--what example`` renders the sediment-plume example's scene instead
 (``example_blends/make_examples.py``: shore, 10 bands, Case-2 IOP models, a camera above the sea
@@ -25,7 +28,7 @@ at 160 x 90 and 16 spp, 5 radiometers above the water at 1e5 samples) with its p
 to a 256^3 grid, against the same scene with the clear water alone.
 
     .venv/bin/python scripts/grid_cost.py [--n 256] [--repeat 3] [--what both|image|example] [--bands 1]
-                                          [--threads 0] [--mixed] [--json out.json]
+                                          [--threads 0] [--mixed] [--cdom] [--json out.json]
 """
 from __future__ import annotations
 
@@ -45,6 +48,7 @@ from photic.scene import IOPGrid, IOPProfile, IOPs, ScatteringComponent, Scene
 
 HG = {"type": "henyey_greenstein", "g": 0.9}
 MIXED = ", mixed"  # the name of a grid's water mixed evenly (--mixed)
+CDOM = " + cdom"  # the name of a grid with a second field (--cdom)
 WATER = {"type": "pure_water"}
 
 
@@ -76,6 +80,24 @@ def dense(n: int, seed: int = 6) -> np.ndarray:
     return np.random.default_rng(seed).random((n, n, n), dtype=np.float32)
 
 
+def companion(rho: np.ndarray) -> np.ndarray:
+    """A second field for --cdom: the first spread wider across (a box blur over about n/16
+    voxels along x and y, by cumulative sums), as dissolved matter spreads beyond the
+    sediment that settles."""
+    out = rho.astype(np.float64)
+    for axis in (0, 1):
+        r = max(1, rho.shape[axis] // 32)
+        c = np.cumsum(np.pad(out, [(r + 1, r) if a == axis else (0, 0) for a in range(3)]), axis=axis)
+        hi = np.take(c, np.arange(2 * r + 1, c.shape[axis]), axis=axis)
+        lo = np.take(c, np.arange(0, c.shape[axis] - 2 * r - 1), axis=axis)
+        out = (hi - lo) / (2 * r + 1)
+    return np.maximum(out, 0.0).astype(np.float32)
+
+
+CDOM_UNIT = {"absorption": [0.3], "scattering": [{"b": [0.0], "phase": HG}, {"b": [0.0], "phase": WATER}]}
+CDOM_MODEL = {"model": "cdom", "a_ref": 0.3, "water": "none"}
+
+
 @functools.lru_cache(maxsize=1)
 def _examples():
     """example_blends/make_examples.py as a module (it imports bpy only to write .blend files),
@@ -87,6 +109,14 @@ def _examples():
     return mod
 
 
+def _with_cdom(grid: dict, density_file: Path, unit: dict) -> dict:
+    """The grid dict with the .npz's 'cdom' array as a second field, if it holds one."""
+    with np.load(density_file) as z:
+        if "cdom" in z.files:
+            grid["fields"] = [{"name": "cdom", "unit": unit, "key": "cdom"}]
+    return grid
+
+
 def example_scene(integrator: str, density_file: Path | None) -> Scene:
     """The sediment-plume example's scene at 160 x 90, 16 spp, radiometers at 1e5 samples."""
     ex = _examples()
@@ -96,10 +126,10 @@ def example_scene(integrator: str, density_file: Path | None) -> Scene:
     if density_file is None:  # the clear water the plume enters
         water["iop_model"] = ex.clear_water_model()
     else:
-        water["iop_grid"] = {"base": {"iop_model": ex.clear_water_model()},
-                             "unit": {"iop_model": ex.plume_unit_model()},
-                             "origin": list(ex.PLUME_BOX_ORIGIN), "size": list(ex.PLUME_BOX_SIZE),
-                             "file": density_file.name}
+        water["iop_grid"] = _with_cdom({"base": {"iop_model": ex.clear_water_model()},
+                                        "unit": {"iop_model": ex.plume_unit_model()},
+                                        "origin": list(ex.PLUME_BOX_ORIGIN), "size": list(ex.PLUME_BOX_SIZE),
+                                        "file": density_file.name}, density_file, {"iop_model": CDOM_MODEL})
     d["settings"].update(integrator=integrator, radiometer_samples=100_000)
     return Scene.from_dict(d, base_dir=density_file.parent if density_file else None)
 
@@ -111,8 +141,9 @@ def scene(integrator: str, density_file: Path | None, what: str = "both", bands:
     if density_file is None:
         water["iops"] = BASE
     else:  # read from an .npz as users give large grids (the reading is part of the cost)
-        water["iop_grid"] = {"base": {"iops": BASE}, "unit": {"iops": UNIT},
-                             "origin": ORIGIN, "size": SIZE, "file": density_file.name}
+        water["iop_grid"] = _with_cdom({"base": {"iops": BASE}, "unit": {"iops": UNIT},
+                                        "origin": ORIGIN, "size": SIZE, "file": density_file.name},
+                                       density_file, {"iops": CDOM_UNIT})
     rads = [{"name": f"{q}_{z:g}", "quantity": q, "position": [10.0, 2.0, -z]}
             for z in (1.0, 3.0, 6.0) for q in ("Ed", "Eu", "Eo")]
     cam = {"name": "cam", "type": "perspective", "position": [0.0, -30.0, 20.0], "look_at": [0.0, 0.0, -10.0],
@@ -135,21 +166,23 @@ def scene(integrator: str, density_file: Path | None, what: str = "both", bands:
 
 
 def homogenised(sc: Scene) -> Scene:
-    """The scene with its gridded water mixed evenly: homogeneous IOPs base + mean(rho) x unit
-    everywhere, with the grid's components (phase functions). The same IOP model and, on
-    average, the same scattering as the grid: the homogeneous render that differs from the
-    grid's in the grid alone."""
-    def mixed(base: IOPs, unit: IOPs, m: float) -> IOPs:
-        return IOPs(base.absorption + m * unit.absorption,
-                    [ScatteringComponent(cb.b + m * cu.b, cb.phase)
-                     for cb, cu in zip(base.scattering, unit.scattering)])
+    """The scene with its gridded water mixed evenly: homogeneous IOPs base + mean(rho_f) x
+    unit_f (every field) everywhere, with the grid's components (phase functions). The same
+    IOP model and, on average, the same scattering as the grid: the homogeneous render that
+    differs from the grid's in the grid alone."""
+    def mixed(base: IOPs, units: list, means: list) -> IOPs:
+        a, bs = base.absorption, [c.b for c in base.scattering]
+        for unit, m in zip(units, means):
+            a = a + m * unit.absorption
+            bs = [b + m * cu.b for b, cu in zip(bs, unit.scattering)]
+        return IOPs(a, [ScatteringComponent(b, cb.phase) for b, cb in zip(bs, base.scattering)])
 
     for w in sc.water:
         g = w.iops
         if isinstance(g, IOPGrid):
-            m = float(np.mean(g.density, dtype=np.float64))
-            w.iops = (IOPProfile(g.iops.z_top, [mixed(x, g.unit, m) for x in g.iops.layers])
-                      if isinstance(g.iops, IOPProfile) else mixed(g.iops, g.unit, m))
+            ms = [float(np.mean(rho, dtype=np.float64)) for rho in g.densities()]
+            w.iops = (IOPProfile(g.iops.z_top, [mixed(x, g.units(), ms) for x in g.iops.layers])
+                      if isinstance(g.iops, IOPProfile) else mixed(g.iops, g.units(), ms))
     return sc
 
 
@@ -179,6 +212,9 @@ def main(argv=None) -> int:
     ap.add_argument("--mixed", action="store_true",
                     help="also render each grid's water mixed evenly (homogeneous water of the "
                          "grid's mean IOPs, the same components) and compare the grid with it")
+    ap.add_argument("--cdom", action="store_true",
+                    help="also render each grid with a second, CDOM-like density field (the first "
+                         "spread wider) and compare it with the one-field grid")
     ap.add_argument("--json", help="write the times here")
     args = ap.parse_args(argv)
     if args.what == "example":  # the example's own bands
@@ -193,6 +229,12 @@ def main(argv=None) -> int:
         nz[name] = float(np.count_nonzero(rho)) / rho.size
         fields[name] = tmp / (name.replace(" ", "_") + ".npz")
         np.savez(fields[name], density=rho)
+        if args.cdom:  # the same grid with a second field
+            two = name + CDOM
+            cdom = companion(rho)
+            nz[two] = float(np.count_nonzero((rho > 0) | (cdom > 0))) / rho.size
+            fields[two] = tmp / (two.replace(" ", "_").replace("+", "") + ".npz")
+            np.savez(fields[two], density=rho, cdom=cdom)
     if args.mixed:  # each grid's water mixed evenly: homogeneous, the grid's mean IOPs
         for name in list(fields)[1:]:
             fields[name + MIXED], nz[name + MIXED] = fields[name], 0.0
@@ -224,7 +266,7 @@ def main(argv=None) -> int:
     print("(x homog.: ratio of the medians; paired: median of each repeat's ratio of renders made"
           " one after the other, which the shared machine's drifts disturb less; segments: path"
           " segments traced, x homog.; per segment: the render's paired ratio over that)")
-    print(f"{'integrator':<10} {'water':<21} {'non-zero':>9} {'median s':>9} {'x homog.':>9}"
+    print(f"{'integrator':<10} {'water':<27} {'non-zero':>9} {'median s':>9} {'x homog.':>9}"
           f" {'render s':>9} {'x homog.':>9} {'paired':>7} {'segments':>9} {'per seg.':>9}")
     rows = []
     for integ in args.integrators.split(","):
@@ -236,7 +278,7 @@ def main(argv=None) -> int:
             paired = statistics.median(a / b for a, b in zip(render_times[(integ, name)],
                                                                render_times[(integ, "homogeneous")]))
             seg = segments[(integ, name)] / segments[(integ, "homogeneous")]
-            print(f"{integ:<10} {name:<21} {nz[name]:>8.2%} {t:>9.2f} {t / ref:>9.2f}"
+            print(f"{integ:<10} {name:<27} {nz[name]:>8.2%} {t:>9.2f} {t / ref:>9.2f}"
                   f" {tr:>9.2f} {tr / ref_r:>9.2f} {paired:>7.2f} {seg:>9.2f} {paired / seg:>9.2f}")
             rows.append({"integrator": integ, "water": name, "nonzero": nz[name], "median_s": t,
                          "ratio": t / ref, "times_s": times[(integ, name)],
@@ -244,18 +286,28 @@ def main(argv=None) -> int:
                          "render_paired_ratio": paired,
                          "segments": segments[(integ, name)], "segments_ratio": seg,
                          "render_times_s": render_times[(integ, name)]})
+    if args.cdom:
+        print("\ntwo fields against the same grid's first field alone (render, paired, segments,"
+              " per segment)")
+        for integ in args.integrators.split(","):
+            for name in [n for n in fields if n + CDOM in fields]:
+                one, two = render_times[(integ, name)], render_times[(integ, name + CDOM)]
+                paired = statistics.median(b / a for a, b in zip(one, two))
+                seg = segments[(integ, name + CDOM)] / segments[(integ, name)]
+                print(f"{integ:<10} {name + CDOM:<27} {statistics.median(two) / statistics.median(one):>9.2f}"
+                      f" {paired:>7.2f} {seg:>9.2f} {paired / seg:>9.2f}")
     mixed = []
     if args.mixed:
         print("\nagainst the same water mixed evenly (homogeneous, the grid's mean IOPs: the same IOP"
               " model and components, on average the same scattering)")
-        print(f"{'integrator':<10} {'water':<21} {'render x':>9} {'paired':>7} {'segments':>9} {'per seg.':>9}")
+        print(f"{'integrator':<10} {'water':<27} {'render x':>9} {'paired':>7} {'segments':>9} {'per seg.':>9}")
         for integ in args.integrators.split(","):
             for name in [n for n in fields if n + MIXED in fields]:
                 grid, even = render_times[(integ, name)], render_times[(integ, name + MIXED)]
                 ratio = statistics.median(grid) / statistics.median(even)
                 paired = statistics.median(a / b for a, b in zip(grid, even))
                 seg = segments[(integ, name)] / segments[(integ, name + MIXED)]
-                print(f"{integ:<10} {name:<21} {ratio:>9.2f} {paired:>7.2f} {seg:>9.2f} {paired / seg:>9.2f}")
+                print(f"{integ:<10} {name:<27} {ratio:>9.2f} {paired:>7.2f} {seg:>9.2f} {paired / seg:>9.2f}")
                 mixed.append({"integrator": integ, "water": name, "render_ratio": ratio,
                               "render_paired_ratio": paired, "segments_ratio": seg})
     if args.json:
