@@ -121,8 +121,9 @@ def _profile_props(obj, w, profile, level: float, bands) -> None:
 
 
 def _grid_props(obj, w, collection, level: float, bands) -> None:
-    """A grid with one scattering component and a density file; its box as an Empty; a depth
-    profile as its base as a layer table (Depth Profile + 3-D Grid)."""
+    """A grid with one scattering component and a density file (kept by its path; further
+    fields are arrays of it); its box as an Empty; a depth profile as its base as a layer
+    table (Depth Profile + 3-D Grid)."""
     g = w.iops
     p = obj.photic
     owner = f"water '{w.name}'"
@@ -135,13 +136,8 @@ def _grid_props(obj, w, collection, level: float, bands) -> None:
         _profile_props(obj, w, g.iops, level, bands)
     else:
         _iops_props(p, owner, g.iops, "its grid's base IOPs have ")
-    p.unit_source = "VALUES"
-    p.unit_absorption_bands = _numbers(g.unit.absorption)
-    if g.unit.scattering:
-        p.unit_scattering_bands = _numbers(g.unit.scattering[0].b)
-        _phase_props(p, "unit_", g.unit.scattering[0].phase)
-    else:
-        p.unit_scattering_bands = _numbers(np.zeros_like(g.unit.absorption))
+    _unit_props(p, g.unit)
+    _field_props(p, owner, g)
     box = bpy.data.objects.new(f"{w.name} grid box", None)
     box.empty_display_type, box.empty_display_size = "CUBE", 1.0
     box.location = tuple(np.asarray(g.origin) + 0.5 * np.asarray(g.size))
@@ -149,6 +145,41 @@ def _grid_props(obj, w, collection, level: float, bands) -> None:
     collection.objects.link(box)
     p.grid_source, p.grid_file, p.grid_box = "NPZ", g.file, box
     p.iop_variation = "PROFILE_GRID" if layered else "GRID"
+
+
+def _unit_props(q, unit) -> None:
+    """Unit IOPs as coefficients on ``q`` (the object's Photic properties or a further field):
+    a scene's unit IOPs are explicit per band (a unit given as a model is evaluated when the
+    scene is read), which no IOP model describes; at most one scattering component (the
+    base's, checked before)."""
+    q.unit_source = "VALUES"
+    q.unit_absorption_bands = _numbers(unit.absorption)
+    if unit.scattering:
+        q.unit_scattering_bands = _numbers(unit.scattering[0].b)
+        _phase_props(q, "unit_", unit.scattering[0].phase)
+    else:
+        q.unit_scattering_bands = _numbers(np.zeros_like(unit.absorption))
+
+
+def _field_props(p, owner: str, g) -> None:
+    """The grid's further density fields as Further Density Fields: each named after its
+    array in the grid's .npz (which the add-on reads by the field's name; the engine's own
+    name of a field is a label only, and is replaced by its key where they differ), unit IOPs
+    as coefficients."""
+    p.grid_fields.clear()
+    for f in g.extra_fields:
+        if f.key is None:
+            raise ValueError(f"{owner}: the grid's field '{f.name}' has its densities given "
+                             f"inline; Blender reads every field from the grid's .npz by its "
+                             f"name: save them in the same file (numpy.savez(path, density=..., "
+                             f"{f.name}=...)) and give the field's 'key'")
+        if f.key == "density":
+            raise ValueError(f"{owner}: the grid's field '{f.name}' reads the array 'density', "
+                             f"the first field's; Blender reads a further field from the array "
+                             f"of its own name: save it under another name")
+        item = p.grid_fields.add()
+        item.name = f.key
+        _unit_props(item, f.unit)
 
 
 def _water_props(obj, w, level: float, bands, collection) -> None:

@@ -7,7 +7,9 @@
   table comes from the user, none is bundled) or a CSV table of coefficients against depth;
 - ``GRID``: the object's IOPs plus a density field times unit IOPs over a box (the engine's
   ``IOPGrid``), the density from a ``.npz`` file or from a Volume object's 'density' grid
-  (read through geometry nodes, ``volume_grid``);
+  (read through geometry nodes, ``volume_grid``), and up to three further density fields
+  (``photic.grid_fields``, the engine's ``GridField``), each with unit IOPs of its own, read
+  by their names from the same file or Volume;
 - ``PROFILE_GRID``: both, the profile as the grid's base (a plume in stratified water).
 
 Depths count down from the water level: the mean sea level of a water surface, the top of a
@@ -25,9 +27,12 @@ import numpy as np
 from bpy.app.handlers import persistent
 
 from .export import ExportError, _obj, blender_float, per_band
+from .properties import MAX_FURTHER_FIELDS
 
 MAX_LAYERS = 5000
-_DENSITY_CACHE: dict = {}  # (path, mtime_ns, size) -> float32 array; the viewport re-exports often
+# (path, mtime_ns, size) -> {array name: checked float32 array}: the arrays read of one .npz
+# (the last one read); the viewport re-exports often
+_DENSITY_CACHE: dict = {}
 
 P_KIND = "Photic > Profile (photic.profile_kind)"
 P_CHL_TEXT = "Photic > Chl Absorption Text (photic.chl_absorption_text)"
@@ -38,6 +43,7 @@ P_GRID_FILE = "Photic > Density File (photic.grid_file)"
 P_GRID_SOURCE = "Photic > Density (photic.grid_source)"
 P_GRID_BOX = "Photic > Grid Box (photic.grid_box)"
 P_UNIT_MODEL = "Photic > Unit IOP Model (photic.unit_model)"
+P_FIELDS = "Photic > Further Density Fields (photic.grid_fields)"
 WATER_ROLES = ("WATER_BODY", "WATER_SURFACE")  # the objects that carry IOPs
 
 
@@ -223,60 +229,121 @@ def table_profile(ex, obj, level: float):
 # -- 3-D grids -------------------------------------------------------------------------------
 
 def unit_iops(ex, obj):
-    """IOPs per unit density (no pure water unless the model names it)."""
+    """IOPs per unit density of the first field (no pure water unless the model names it)."""
+    return _unit_iops(ex, _obj(obj.name), obj.original.photic, "photic", "Photic > ")
+
+
+def _field_label(f, i: int) -> str:
+    """The UI path of further field ``i`` (``photic.grid_fields[i]``), for error messages."""
+    return (f"Photic > Further Density Field '{f.name}' > " if f.name.strip()
+            else f"Photic > Further Density Field {i + 1} > ")
+
+
+def field_prop(f, i: int, attr: str = "name", ui: str = "Name") -> str:
+    """A property of further field ``i`` as errors name it."""
+    return f"{_field_label(f, i)}{ui} (photic.grid_fields[{i}].{attr})"
+
+
+def field_unit_iops(ex, owner: str, f, i: int):
+    """IOPs per unit density of further field ``i``, as ``unit_iops``."""
+    return _unit_iops(ex, owner, f, f"photic.grid_fields[{i}]", _field_label(f, i))
+
+
+def _unit_iops(ex, owner: str, q, path: str, label: str):
+    """Unit IOPs from the properties ``unit_*`` of ``q`` (the object's Photic properties or a
+    further field), errors naming ``label`` + the property's name and ``path`` + its name."""
     S = ex.photic.scene
-    p = obj.original.photic
-    owner = _obj(obj.name)
-    if p.unit_source == "MODEL":
-        return ex.model_iops(owner, p.unit_model, P_UNIT_MODEL, defaults={"water": "none"})
-    a = per_band(owner, p.unit_absorption, p.unit_absorption_bands, "Photic > Unit Absorption",
-                 "photic.unit_absorption", ex.bands, "absorption per unit density")
-    b = per_band(owner, p.unit_scattering, p.unit_scattering_bands, "Photic > Unit Scattering",
-                 "photic.unit_scattering", ex.bands, "scattering per unit density")
-    phase = ex.phase_function(owner, p.unit_phase_function, p.unit_hg_g, p.unit_ff_backscatter,
-                              prefix="Photic > Unit ")
+    if q.unit_source == "MODEL":
+        return ex.model_iops(owner, q.unit_model, f"{label}Unit IOP Model ({path}.unit_model)",
+                             defaults={"water": "none"})
+    a = per_band(owner, q.unit_absorption, q.unit_absorption_bands, f"{label}Unit Absorption",
+                 f"{path}.unit_absorption", ex.bands, "absorption per unit density")
+    b = per_band(owner, q.unit_scattering, q.unit_scattering_bands, f"{label}Unit Scattering",
+                 f"{path}.unit_scattering", ex.bands, "scattering per unit density")
+    phase = ex.phase_function(owner, q.unit_phase_function, q.unit_hg_g, q.unit_ff_backscatter,
+                              prefix=f"{label}Unit ")
     return S.IOPs(a, [S.ScatteringComponent(b, phase)])
+
+
+def further_fields(owner: str, p) -> list[tuple[str, str]]:
+    """(name, property naming it) of each further density field, checked: at most three,
+    names non-empty, their own and not 'density' (the first field's array or grid)."""
+    fields = list(p.grid_fields)
+    if len(fields) > MAX_FURTHER_FIELDS:
+        raise ExportError(owner, P_FIELDS, f"has {len(fields)} fields: a grid holds at most "
+                                           f"{MAX_FURTHER_FIELDS} beside its 'density' (remove "
+                                           f"{len(fields) - MAX_FURTHER_FIELDS})")
+    out = []
+    for i, f in enumerate(fields):
+        name, prop = f.name, field_prop(f, i)
+        if not name.strip() or name != name.strip():
+            raise ExportError(owner, prop, f"is {name!r}: a further field needs a name, without "
+                                           f"spaces around it: the name of its array in the "
+                                           f"Density File or of its grid in the Volume")
+        if name == "density":
+            raise ExportError(owner, prop, "is 'density', the first field's array or grid: "
+                                           "name a further field after its own array or grid")
+        if name in [n for n, _ in out]:
+            raise ExportError(owner, prop, f"'{name}' names two further fields: each reads its "
+                                           f"own array or grid")
+        out.append((name, prop))
+    return out
 
 
 def density_grid(ex, obj, bounds, profile=None):
     """The base IOPs (the object's IOP source, or the depth ``profile``) plus density x unit
-    IOPs over the box, every layer and the unit on one set of components."""
+    IOPs over the box, and each further field's density x its unit IOPs; every layer and unit
+    on one set of components."""
     S = ex.photic.scene
     from photic.profiles import align_components
     p = obj.original.photic
     owner = _obj(obj.name)
+    fields = further_fields(owner, p)
+    units = [unit_iops(ex, obj)] + [field_unit_iops(ex, owner, f, i)
+                                    for i, f in enumerate(p.grid_fields)]
     if profile is not None:
-        *layers, unit = align_components(list(profile.layers) + [unit_iops(ex, obj)])
-        base = S.IOPProfile(profile.z_top, layers)
+        aligned = align_components(list(profile.layers) + units)
+        n = len(profile.layers)
+        base, units = S.IOPProfile(profile.z_top, aligned[:n]), aligned[n:]
     else:
-        base, unit = align_components([ex.iops(obj), unit_iops(ex, obj)])
+        base, *units = align_components([ex.iops(obj)] + units)
     if p.grid_source == "VOLUME":
-        density, lo, hi = volume_density(ex, owner, p.grid_box)
+        density, lo, hi, extra = volume_density(ex, owner, p.grid_box, fields)
         file = None
     else:
-        density, file = npz_density(owner, p.grid_file)
+        (density, *extra), file = npz_arrays(owner, p.grid_file, fields)
         lo, hi = grid_box(ex, owner, p.grid_box, bounds)
-    return S.IOPGrid(base, unit, lo, hi - lo, density, file)
+        where = f"{file}: array"
+        for (name, prop), rho in zip(fields, extra):
+            if rho.shape != density.shape:
+                raise ExportError(owner, prop, f"{where} '{name}' has shape {rho.shape} but "
+                                               f"'density' has {density.shape}: every field is "
+                                               f"on the grid's voxels (the same shape)")
+    extra_fields = [S.GridField(name, unit, rho, name if file is not None else None)
+                    for (name, _), unit, rho in zip(fields, units[1:], extra)]
+    return S.IOPGrid(base, units[0], lo, hi - lo, density, file, extra_fields)
 
 
-def check_density(owner: str, prop: str, density, where: str) -> np.ndarray:
-    """The density as float32 (nx, ny, nz), every voxel finite and >= 0."""
+def check_density(owner: str, prop: str, density, where: str,
+                  name: str = "density") -> np.ndarray:
+    """The densities of field ``name`` as float32 (nx, ny, nz), every voxel finite and >= 0."""
     d = np.asarray(density)
+    what = "density" if name == "density" else f"'{name}'"
     if d.ndim != 3 or 0 in d.shape or d.dtype.kind not in "fiu":
-        raise ExportError(owner, prop, f"{where}: 'density' must be a non-empty 3-D array of "
+        raise ExportError(owner, prop, f"{where}: '{name}' must be a non-empty 3-D array of "
                                        f"numbers (nx, ny, nz), x first; it has shape "
                                        f"{d.shape} and type {d.dtype}")
     d = np.ascontiguousarray(d, dtype=np.float32)
     bad = ~np.isfinite(d)
     if bad.any():
         i = tuple(int(x) for x in np.argwhere(bad)[0])
-        raise ExportError(owner, prop, f"{where}: density at voxel {list(i)} is {d[i]} "
+        raise ExportError(owner, prop, f"{where}: {what} at voxel {list(i)} is {d[i]} "
                                        f"({int(bad.sum())} voxel(s) not finite); densities "
                                        f"must be finite numbers >= 0")
     neg = d < 0
     if neg.any():
         i = tuple(int(x) for x in np.argwhere(neg)[0])
-        raise ExportError(owner, prop, f"{where}: density at voxel {list(i)} is {d[i]:g} "
+        raise ExportError(owner, prop, f"{where}: {what} at voxel {list(i)} is {d[i]:g} "
                                        f"({int(neg.sum())} voxel(s) negative); densities "
                                        f"must be >= 0")
     return d
@@ -284,6 +351,14 @@ def check_density(owner: str, prop: str, density, where: str) -> np.ndarray:
 
 def npz_density(owner: str, file_text: str) -> tuple[np.ndarray, str]:
     """The checked density of a .npz (array 'density') and its absolute path."""
+    (density,), path = npz_arrays(owner, file_text)
+    return density, path
+
+
+def npz_arrays(owner: str, file_text: str, fields=()) -> tuple[list[np.ndarray], str]:
+    """The checked arrays 'density' and those of the further ``fields`` ((name, property)
+    each) of a .npz, and its absolute path. The arrays read of the last file read are kept
+    while it is unchanged; an array asked for later is read then."""
     if not file_text.strip():
         raise ExportError(owner, P_GRID_FILE, "is empty: choose the .npz holding the array "
                                               "'density'")
@@ -294,22 +369,36 @@ def npz_density(owner: str, file_text: str) -> tuple[np.ndarray, str]:
         raise ExportError(owner, P_GRID_FILE, f"{path} does not exist") from None
     key = (str(path), st.st_mtime_ns, st.st_size)
     if key not in _DENSITY_CACHE:
+        _DENSITY_CACHE.clear()  # keep one file's arrays: they can be large
+    kept = _DENSITY_CACHE.get(key, {})
+    wanted = [("density", P_GRID_FILE)] + list(fields)
+    missing = [(name, prop) for name, prop in wanted if name not in kept]
+    if missing:
+        got = {}
         try:
             with np.load(path, allow_pickle=False) as z:
                 if not hasattr(z, "files"):
                     raise ValueError("not a .npz archive (save it with "
                                      "numpy.savez(path, density=array))")
-                if "density" not in z.files:
-                    raise ExportError(owner, P_GRID_FILE, f"{path} has no array 'density' "
-                                                          f"(it has: {', '.join(z.files) or 'none'})")
-                raw = z["density"]
+                for name, prop in missing:
+                    if name not in z.files:
+                        has = ", ".join(z.files) or "none"
+                        if name == "density":
+                            raise ExportError(owner, P_GRID_FILE, f"{path} has no array "
+                                                                  f"'density' (it has: {has})")
+                        raise ExportError(owner, prop, f"the Density File {path} has no array "
+                                                       f"'{name}' (it has: {has}): a further "
+                                                       f"field reads the array of its name")
+                    got[name] = (z[name], prop)
         except ExportError:
             raise
         except Exception as exc:  # zip, pickle and format errors alike
             raise ExportError(owner, P_GRID_FILE, f"cannot read {path}: {exc}") from None
-        _DENSITY_CACHE.clear()  # keep one field: they can be large
-        _DENSITY_CACHE[key] = check_density(owner, P_GRID_FILE, raw, str(path))
-    return _DENSITY_CACHE[key], str(path)
+        for name, (raw, prop) in got.items():
+            got[name] = check_density(owner, prop, raw, str(path), name)
+        kept = _DENSITY_CACHE.setdefault(key, {})
+        kept.update(got)
+    return [kept[name] for name, _ in wanted], str(path)
 
 
 def _world_box(owner: str, box, corners) -> tuple[np.ndarray, np.ndarray]:
@@ -370,43 +459,65 @@ def _volume_key(box, frame: int, depsgraph) -> tuple:
             tuple(box.modifiers.keys()))
 
 
-# key -> (density, lo, hi) or ExportError: the reads made on the main thread, the newest last.
-# Kept: the last 4, and older ones while all together hold at most VOLUME_CACHE_BYTES of
-# densities (an animation read frame by frame); equal densities are stored once.
+# key -> {grid name: (densities, lo, hi) or ExportError}: the reads made on the main thread,
+# one entry per Volume and frame holding each grid read of it ('density' and the further
+# fields' grids), the newest last. Kept: the last 4, and older ones while all together hold at
+# most VOLUME_CACHE_BYTES of densities (an animation read frame by frame); equal densities of
+# a grid are stored once.
 _VOLUME_CACHE: dict = {}
 VOLUME_CACHE_BYTES = 2 << 30
 
 
 def _cache_bytes() -> int:
-    arrays = {id(v[0]): v[0].nbytes for v in _VOLUME_CACHE.values() if isinstance(v, tuple)}
+    arrays = {id(g[0]): g[0].nbytes for entry in _VOLUME_CACHE.values()
+              for g in entry.values() if isinstance(g, tuple)}
     return sum(arrays.values())
 
 
-def _cache_put(key, got):
-    if isinstance(got, tuple):
-        # The same densities as the newest read of that shape (a Volume still in time, read
-        # frame by frame): kept once. One comparison per read, not one per read kept.
+def _cache_put(key, entry: dict, fresh) -> None:
+    """Keeps ``entry`` (the grids read of one Volume at one frame) as the newest read.
+    A grid of ``fresh`` (the names just read) with the same densities as the newest read of
+    that grid and shape (a Volume still in time, read frame by frame) is kept once: one
+    comparison per grid read, not one per read kept."""
+    for name in fresh:
+        got = entry[name]
+        if not isinstance(got, tuple):
+            continue
         d = got[0]
         for other in reversed(list(_VOLUME_CACHE.values())):
-            if isinstance(other, tuple) and other[0].shape == d.shape:
-                if np.array_equal(other[0], d):
-                    got = (other[0],) + tuple(got[1:])
+            o = other.get(name)
+            if isinstance(o, tuple) and o[0].shape == d.shape:
+                if np.array_equal(o[0], d):
+                    entry[name] = (o[0],) + tuple(got[1:])
                 break
     _VOLUME_CACHE.pop(key, None)
-    _VOLUME_CACHE[key] = got
+    _VOLUME_CACHE[key] = entry
     while len(_VOLUME_CACHE) > 4 and _cache_bytes() > VOLUME_CACHE_BYTES:
         _VOLUME_CACHE.pop(next(iter(_VOLUME_CACHE)))
 
 
+def volume_grid_names(p) -> dict:
+    """{grid name: the property an error about it names} of the grids a water object reads
+    from its Volume: 'density' (the Grid Box) and each further field's (its name), in order;
+    names ``further_fields`` would refuse are left to the export to name."""
+    names = {"density": P_GRID_BOX}
+    for i, f in enumerate(p.grid_fields):
+        if f.name.strip() and f.name not in names:
+            names[f.name] = field_prop(f, i)
+    return names
+
+
 def read_volumes(scene, force: bool = True, keys: list | None = None) -> list:
-    """Reads, on Blender's main thread, the 'density' grid of every Volume that a water object
-    of ``scene`` (original) takes its grid from, into the cache that ``volume_density`` answers
-    from. Before the export walks the depsgraph: the read adds and removes a temporary object
-    and re-evaluates. Elsewhere (an F12 render's thread) it does nothing: the last read stands.
-    A Volume shared by several water objects is read once; ``force=False`` keeps a read whose
-    key (data, file, frame, transform, modifiers) still matches (right after loading a file).
-    Returns what was read: per Volume (water object, Volume, voxel counts or the ExportError);
-    ``keys`` gets the cache keys of the reads made or kept."""
+    """Reads, on Blender's main thread, the 'density' grid and the further density fields'
+    grids of every Volume that a water object of ``scene`` (original) takes its grid from,
+    into the cache that ``volume_density`` answers from. Before the export walks the
+    depsgraph: the read adds and removes a temporary object and re-evaluates. Elsewhere (an F12
+    render's thread) it does nothing: the last read stands. A Volume shared by several water
+    objects is read once per grid; ``force=False`` keeps the grids of a read whose key (data,
+    file, frame, transform, modifiers) still matches (right after loading a file) and reads
+    only the grids it lacks. Returns what was read: per water object (water object, Volume,
+    the density's voxel counts or the first ExportError among its grids); ``keys`` gets the
+    cache keys of the reads made or kept."""
     from . import volume_grid
     done = []
     if not volume_grid.on_main_thread():
@@ -421,19 +532,27 @@ def read_volumes(scene, force: bool = True, keys: list | None = None) -> list:
         box = p.grid_box
         if box is None or box.type != "VOLUME":
             continue  # volume_density names the problem
+        owner = _obj(obj.name)
+        names = volume_grid_names(p)
         key = _volume_key(box, scene.frame_current, depsgraph)
-        got = this_call.get(key, None if force else _VOLUME_CACHE.get(key))
-        if got is not None and key in _VOLUME_CACHE:
+        entry = this_call.get(key, None if force else _VOLUME_CACHE.get(key))
+        if entry is not None and key in _VOLUME_CACHE:
             _VOLUME_CACHE[key] = _VOLUME_CACHE.pop(key)  # (used again: kept longest)
-        if got is None:
-            try:
-                raw, index_to_world, i0 = volume_grid.read_volume_grid(box, "density")
-                got = _volume_field(_obj(obj.name), box, raw, index_to_world, i0)
-            except volume_grid.VolumeGridError as exc:
-                got = ExportError(_obj(obj.name), P_GRID_BOX, str(exc))
-            _cache_put(key, got)
-            this_call[key] = got
-        done.append((obj.name, box.name, got if isinstance(got, ExportError) else got[0].shape))
+        missing = [name for name in names if entry is None or name not in entry]
+        if missing:
+            entry = dict(entry or {})
+            for name in missing:
+                try:
+                    raw, index_to_world, i0 = volume_grid.read_volume_grid(box, name)
+                    entry[name] = _volume_field(owner, names[name], box, raw, index_to_world,
+                                                i0, name)
+                except volume_grid.VolumeGridError as exc:
+                    entry[name] = ExportError(owner, names[name], str(exc))
+            _cache_put(key, entry, missing)
+            this_call[key] = entry
+        problems = [ExportError(owner, prop, entry[name].message) for name, prop in names.items()
+                    if isinstance(entry[name], ExportError)]
+        done.append((obj.name, box.name, problems[0] if problems else entry["density"][0].shape))
         if keys is not None:
             keys.append(key)
     return done
@@ -468,48 +587,81 @@ def read_volumes_over_frames(scene, frames, progress=None) -> tuple[list, str | 
     return done, None
 
 
-def _volume_field(owner: str, box, raw, index_to_world, i0):
-    """(density, lo, hi) of a grid read from a Volume, or the ExportError saying why not."""
+def _volume_field(owner: str, prop: str, box, raw, index_to_world, i0, name: str = "density"):
+    """(densities, lo, hi) of grid ``name`` read from a Volume, or the ExportError saying why
+    not (naming ``prop``)."""
+    grid = "its grid's voxels are" if name == "density" else f"its grid '{name}' has voxels"
     r = index_to_world[:3, :3]
     if np.abs(r - np.diag(np.diag(r))).max() > 1e-6 * np.abs(r).max():
-        return ExportError(owner, P_GRID_BOX, f"Volume '{box.name}': its grid's voxels are "
-                                              f"rotated against the world axes (the grid's box "
-                                              f"is aligned with them: clear the rotation)")
+        return ExportError(owner, prop, f"Volume '{box.name}': {grid} rotated against the "
+                                        f"world axes (the grid's box is aligned with them: "
+                                        f"clear the rotation)")
     # Voxel centres sit at integer index coordinates: the voxels span +-0.5 around them.
     ends = np.array([i0 - 0.5, i0 + np.array(raw.shape) - 0.5])
     world = np.c_[ends, np.ones(2)] @ index_to_world.T
     lo, hi = world[:, :3].min(axis=0), world[:, :3].max(axis=0)
     # A negative scale runs the voxels backwards along its axis.
     flip = tuple(a for a in range(3) if r[a, a] < 0)
+    where = f"Volume '{box.name}'" if name == "density" else f"Volume '{box.name}', grid '{name}'"
     try:
-        density = check_density(owner, P_GRID_BOX, np.flip(raw, axis=flip) if flip else raw,
-                                f"Volume '{box.name}'")
+        density = check_density(owner, prop, np.flip(raw, axis=flip) if flip else raw, where,
+                                name)
     except ExportError as exc:
         return exc
     return density, lo, hi
 
 
-def volume_density(ex, owner: str, box):
-    """Density and world bounds of a Volume object's evaluated 'density' grid, as
-    ``read_volumes`` read it before the export (geometry nodes, main thread); an F12 render
-    (its own thread) uses the last read of the same Volume and frame."""
+def _span(d, lo, hi) -> str:
+    xyz = [", ".join(f"{x:g}" for x in v) for v in (lo, hi)]
+    return f"{' x '.join(map(str, d.shape))} voxels from ({xyz[0]}) to ({xyz[1]}) m"
+
+
+def volume_density(ex, owner: str, box, fields=()):
+    """Density and world bounds of a Volume object's evaluated 'density' grid, and the
+    densities of the grids of the further ``fields`` ((name, property) each) on the same
+    voxels: (density, lo, hi, [densities of each field]), as ``read_volumes`` read them before
+    the export (geometry nodes, main thread); an F12 render (its own thread) uses the last
+    read of the same Volume and frame."""
     if box is None or box.type != "VOLUME":
         name = f"Object '{box.name}' is a {box.type.lower()}" if box is not None else "it is empty"
         raise ExportError(owner, P_GRID_BOX, f"'Volume Object' reads a Volume object's grid, "
                                              f"but {name}: choose a Volume object")
-    got = _VOLUME_CACHE.get(_volume_key(box, ex.bscene.frame_current, ex.dg))
-    if isinstance(got, ExportError):
-        raise ExportError(owner, got.prop, got.message)
-    if got is not None:
-        return got
-    raise ExportError(owner, P_GRID_SOURCE, f"is 'Volume Object': Volume '{box.name}' at frame "
-                                            f"{ex.bscene.frame_current} has not been read. Its "
-                                            f"voxels are read through geometry nodes on Blender's "
-                                            f"main thread, not in an F12 render's: press 'Read "
-                                            f"Volume Grids' in the water's Photic panel (again "
-                                            f"after changing the Volume or the frame), or "
-                                            f"render from the command line (blender -b FILE -f "
-                                            f"N or -a, photic blend), which reads every frame")
+    frame = ex.bscene.frame_current
+    entry = _VOLUME_CACHE.get(_volume_key(box, frame, ex.dg))
+    if entry is None or "density" not in entry:
+        raise ExportError(owner, P_GRID_SOURCE, f"is 'Volume Object': Volume '{box.name}' at "
+                                                f"frame {frame} has not been read. Its "
+                                                f"voxels are read through geometry nodes on "
+                                                f"Blender's main thread, not in an F12 render's: "
+                                                f"press 'Read Volume Grids' in the water's "
+                                                f"Photic panel (again after changing the Volume "
+                                                f"or the frame), or render from the command "
+                                                f"line (blender -b FILE -f N or -a, photic "
+                                                f"blend), which reads every frame")
+    got = []
+    for name, prop in [("density", P_GRID_BOX)] + list(fields):
+        grid = entry.get(name)
+        if grid is None:
+            raise ExportError(owner, P_GRID_SOURCE, f"is 'Volume Object': grid '{name}' of "
+                                                    f"Volume '{box.name}' at frame {frame} has "
+                                                    f"not been read (its field was added or "
+                                                    f"renamed since the last read): press 'Read "
+                                                    f"Volume Grids' in the water's Photic panel, "
+                                                    f"or render from the command line")
+        if isinstance(grid, ExportError):
+            raise ExportError(owner, prop, grid.message)
+        got.append(grid)
+    (density, lo, hi), *extra = got
+    tol = 1e-6 * float(np.max(hi - lo))
+    for (name, prop), (rho, lo_f, hi_f) in zip(fields, extra):
+        if rho.shape != density.shape or not (np.allclose(lo_f, lo, rtol=0, atol=tol)
+                                              and np.allclose(hi_f, hi, rtol=0, atol=tol)):
+            raise ExportError(owner, prop, f"Volume '{box.name}': grid '{name}' spans "
+                                           f"{_span(rho, lo_f, hi_f)} but grid 'density' spans "
+                                           f"{_span(density, lo, hi)}: every field is on the "
+                                           f"grid's voxels (give the grids one voxel size and "
+                                           f"transform)")
+    return density, lo, hi, [e[0] for e in extra]
 
 
 @persistent

@@ -7,6 +7,7 @@ from bpy.props import StringProperty
 from .engine_loader import engine_error, load_engine
 from . import natural_waters
 from .export import ExportCancelled, ExportError, export_scene
+from .properties import MAX_FURTHER_FIELDS
 
 
 class PHOTIC_OT_export_scene(bpy.types.Operator):
@@ -44,9 +45,10 @@ class PHOTIC_OT_export_scene(bpy.types.Operator):
 
 
 class PHOTIC_OT_read_volume_grids(bpy.types.Operator):
-    """Read the 'density' grids of the Volume objects that water objects take their IOP grid
-    from (at the current frame, or at every frame of the scene's range), for renders started
-    with F12 or Ctrl+F12: Blender's main thread reads a Volume's voxels, not a render's"""
+    """Read the 'density' grids (and the grids of further density fields) of the Volume
+    objects that water objects take their IOP grid from (at the current frame, or at every
+    frame of the scene's range), for renders started with F12 or Ctrl+F12: Blender's main
+    thread reads a Volume's voxels, not a render's"""
 
     bl_idname = "photic.read_volume_grids"
     bl_label = "Read Volume Grids"
@@ -81,11 +83,67 @@ class PHOTIC_OT_read_volume_grids(bpy.types.Operator):
         if not done:
             self.report({"WARNING"}, "Photic: no water object takes its IOP grid from a Volume")
             return {"CANCELLED"}
-        read = dict.fromkeys(f"Volume '{vol}' ({' x '.join(map(str, shape))} voxels) for '{water}'"
-                             for water, vol, shape in done)
+        def grids(water):  # the further fields' grids, if any
+            names = list(natural_waters.volume_grid_names(scene.objects[water].photic))
+            return f"grids {', '.join(names)}, " if len(names) > 1 else ""
+
+        read = dict.fromkeys(f"Volume '{vol}' ({grids(water)}{' x '.join(map(str, shape))} "
+                             f"voxels) for '{water}'" for water, vol, shape in done)
         where = (f" at frames {scene.frame_start}-{scene.frame_end}" if self.every_frame
                  else f" at frame {scene.frame_current}")
         self.report({"INFO"}, "Photic: read " + ", ".join(read) + where)
+        return {"FINISHED"}
+
+
+def _water_props(context):
+    """The Photic properties of the context's water object, or None."""
+    obj = getattr(context, "object", None)
+    p = getattr(obj, "photic", None) if obj is not None else None
+    return p if p is not None and p.role in natural_waters.WATER_ROLES else None
+
+
+class PHOTIC_OT_grid_field_add(bpy.types.Operator):
+    """Add a further density field to the water's 3-D grid (at most 3 beside 'density'): its
+    densities, the array or Volume grid of its name, times its own unit IOPs"""
+
+    bl_idname = "photic.grid_field_add"
+    bl_label = "Add Density Field"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        p = _water_props(context)
+        return p is not None and len(p.grid_fields) < MAX_FURTHER_FIELDS
+
+    def execute(self, context):
+        p = _water_props(context)
+        taken = {f.name for f in p.grid_fields} | {"density"}
+        name = next(n for n in ("cdom", *(f"field{i}" for i in range(2, 100))) if n not in taken)
+        p.grid_fields.add().name = name
+        return {"FINISHED"}
+
+
+class PHOTIC_OT_grid_field_remove(bpy.types.Operator):
+    """Remove this further density field from the water's 3-D grid"""
+
+    bl_idname = "photic.grid_field_remove"
+    bl_label = "Remove Density Field"
+    bl_options = {"REGISTER", "UNDO"}
+
+    index: bpy.props.IntProperty(name="Index", default=0, min=0,
+                                 description="Which further field (0: the first listed)")
+
+    @classmethod
+    def poll(cls, context):
+        p = _water_props(context)
+        return p is not None and len(p.grid_fields) > 0
+
+    def execute(self, context):
+        p = _water_props(context)
+        if self.index >= len(p.grid_fields):
+            self.report({"ERROR"}, f"Photic: no further density field {self.index}")
+            return {"CANCELLED"}
+        p.grid_fields.remove(self.index)
         return {"FINISHED"}
 
 
@@ -126,7 +184,8 @@ def menu_export(self, context):
     self.layout.operator(PHOTIC_OT_export_scene.bl_idname, text="Photic Scene (.json)")
 
 
-classes = (PHOTIC_OT_export_scene, PHOTIC_OT_read_volume_grids, PHOTIC_OT_import_scene)
+classes = (PHOTIC_OT_export_scene, PHOTIC_OT_read_volume_grids, PHOTIC_OT_grid_field_add,
+           PHOTIC_OT_grid_field_remove, PHOTIC_OT_import_scene)
 
 
 def register():

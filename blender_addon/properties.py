@@ -9,8 +9,8 @@ Each group attaches itself to its ID type in ``register`` and removes itself in 
 import math
 
 import bpy
-from bpy.props import (BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty,
-                       IntProperty, PointerProperty, StringProperty)
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
+                       FloatVectorProperty, IntProperty, PointerProperty, StringProperty)
 
 ROLES = [
     ("NONE", "None", "An ordinary object: opaque, Lambertian with its material's base colour"),
@@ -57,6 +57,63 @@ def _wave_update(self, context):
     # Regenerate the viewport preview of a wave-model surface (imported late: needs numpy).
     from . import waves_preview
     waves_preview.update_object(self.id_data)
+
+
+# Density fields of a grid beside the first ('density'): the engine's MAX_GRID_FIELDS - 1
+MAX_FURTHER_FIELDS = 3
+
+
+class PhoticGridField(bpy.types.PropertyGroup):
+    """A further density field of a water object's 3-D grid: its densities (the array or
+    Volume grid of its name) times its own unit IOPs are added to the IOPs, on the voxels of
+    the first field ('density')."""
+
+    name: StringProperty(
+        name="Name", default="cdom",
+        description="The field's name, which is also where its densities are: the array of "
+                    "this name in the Density File (.npz), or the float grid of this name in "
+                    "the Grid Box's Volume object; on the same voxels as 'density' (the same "
+                    "shape), >= 0. Not 'density' (the first field's)")
+    unit_source: EnumProperty(
+        name="Unit IOPs", default="MODEL",
+        items=[("MODEL", "IOP Model", "A model description in JSON (docs/iop-models.md); pure "
+                                      "water is not added unless it names \"water\""),
+               ("VALUES", "Coefficients", "Absorption and scattering per unit density as "
+                                          "given below (File > Import makes a scene's explicit "
+                                          "unit IOPs these)")],
+        description="IOPs added per unit of this field's density")
+    unit_model: StringProperty(
+        name="Unit IOP Model", default='{"model": "cdom", "a_ref": 0.5}',
+        description="IOPs per unit of this field's density as a model description in JSON "
+                    "(docs/iop-models.md), e.g. {\"model\": \"cdom\", \"a_ref\": 0.5} (CDOM "
+                    "absorbing 0.5 m^-1 at 440 nm per unit density); pure water is not added "
+                    "unless it names \"water\"")
+    unit_absorption: FloatProperty(
+        name="Unit Absorption", default=0.1, min=0.0, soft_max=10.0, precision=4,
+        description="Absorption per unit of this field's density (m^-1) in every band unless "
+                    "given per band")
+    unit_absorption_bands: StringProperty(
+        name="Unit Absorption per Band",
+        description="Absorption per unit of this field's density (m^-1), one per band "
+                    "separated by commas")
+    unit_scattering: FloatProperty(
+        name="Unit Scattering", default=0.0, min=0.0, soft_max=100.0, precision=4,
+        description="Scattering per unit of this field's density (m^-1) in every band unless "
+                    "given per band")
+    unit_scattering_bands: StringProperty(
+        name="Unit Scattering per Band",
+        description="Scattering per unit of this field's density (m^-1), one per band "
+                    "separated by commas")
+    unit_phase_function: EnumProperty(name="Unit Phase Function", items=PHASE_FUNCTIONS,
+                                      default="fournier_forand",
+                                      description="Phase function of this field's scattering")
+    unit_hg_g: FloatProperty(name="Unit Asymmetry g", default=0.9, min=-0.99, max=0.99,
+                             precision=3, description="Henyey-Greenstein g of this field's "
+                                                      "scattering, in [-0.99, 0.99]")
+    unit_ff_backscatter: FloatProperty(
+        name="Unit Backscatter Fraction", default=0.02, min=0.0001, max=0.15, precision=4,
+        description="Fournier-Forand backscatter fraction of this field's scattering, in "
+                    "[0.0001, 0.15]")
 
 
 class PhoticObjectProperties(bpy.types.PropertyGroup):
@@ -302,6 +359,13 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
         name="Unit Backscatter Fraction", default=0.02, min=0.0001, max=0.15, precision=4,
         description="Fournier-Forand backscatter fraction of the added scattering, in "
                     "[0.0001, 0.15]")
+    grid_fields: CollectionProperty(
+        type=PhoticGridField, name="Further Density Fields",
+        description="Up to 3 more density fields on the grid's voxels, each with unit IOPs of "
+                    "its own (e.g. CDOM beside sediment): IOPs = base + density x unit IOPs + "
+                    "the sum of each further field's density x its unit IOPs. Each is read "
+                    "like the first, by its name: an array of the Density File or a grid of "
+                    "the Volume object")
 
     # Radiometers
     quantity: EnumProperty(name="Quantity", items=QUANTITIES, default="Ed",
@@ -470,5 +534,5 @@ class PhoticSceneProperties(bpy.types.PropertyGroup):
         del bpy.types.Scene.photic
 
 
-classes = (PhoticObjectProperties, PhoticMaterialProperties, PhoticWorldProperties,
-           PhoticSceneProperties)
+classes = (PhoticGridField, PhoticObjectProperties, PhoticMaterialProperties,
+           PhoticWorldProperties, PhoticSceneProperties)

@@ -5,6 +5,7 @@ import bpy
 
 from . import final_render
 from .natural_waters import WATER_ROLES
+from .properties import MAX_FURTHER_FIELDS
 from .engine_loader import engine_error, load_engine
 from .nodes import find_node
 
@@ -222,8 +223,9 @@ class PHOTIC_PT_iop_variation(PhoticPanel, bpy.types.Panel):
                 sub.active = p.profile_table_text is None
                 sub.prop(p, "profile_table_file")
         if p.iop_variation in ("GRID", "PROFILE_GRID"):
-            layout.label(text="IOPs = the IOPs above + density x unit IOPs" if p.iop_variation == "GRID"
-                         else "IOPs = the profile's layer + density x unit IOPs")
+            base = "the IOPs above" if p.iop_variation == "GRID" else "the profile's layer"
+            more = " + further fields" if len(p.grid_fields) else ""
+            layout.label(text=f"IOPs = {base} + density x unit IOPs{more}")
             layout.prop(p, "grid_source")
             if p.grid_source == "NPZ":
                 layout.prop(p, "grid_file")
@@ -232,21 +234,46 @@ class PHOTIC_PT_iop_variation(PhoticPanel, bpy.types.Panel):
                 row = layout.row(align=True)
                 row.operator("photic.read_volume_grids", icon="FILE_REFRESH")
                 row.operator("photic.read_volume_grids", text="Every Frame").every_frame = True
-            layout.prop(p, "unit_source")
-            if p.unit_source == "MODEL":
-                layout.prop(p, "unit_model")
-            else:
-                col = layout.column(align=True)
-                col.prop(p, "unit_absorption")
-                col.prop(p, "unit_absorption_bands")
-                col = layout.column(align=True)
-                col.prop(p, "unit_scattering")
-                col.prop(p, "unit_scattering_bands")
-                layout.prop(p, "unit_phase_function")
-                if p.unit_phase_function == "henyey_greenstein":
-                    layout.prop(p, "unit_hg_g")
-                elif p.unit_phase_function == "fournier_forand":
-                    layout.prop(p, "unit_ff_backscatter")
+            _draw_unit_iops(layout, p)
+            _draw_further_fields(layout, p)
+
+
+def _draw_unit_iops(layout, q) -> None:
+    """The unit IOPs of a grid's first field (``q``: the object's Photic properties) or of a
+    further field (``q``: the field): the same property names on both."""
+    layout.prop(q, "unit_source")
+    if q.unit_source == "MODEL":
+        layout.prop(q, "unit_model")
+        return
+    col = layout.column(align=True)
+    col.prop(q, "unit_absorption")
+    col.prop(q, "unit_absorption_bands")
+    col = layout.column(align=True)
+    col.prop(q, "unit_scattering")
+    col.prop(q, "unit_scattering_bands")
+    layout.prop(q, "unit_phase_function")
+    if q.unit_phase_function == "henyey_greenstein":
+        layout.prop(q, "unit_hg_g")
+    elif q.unit_phase_function == "fournier_forand":
+        layout.prop(q, "unit_ff_backscatter")
+
+
+def _draw_further_fields(layout, p) -> None:
+    """The grid's further density fields, one box each (name, remove button, unit IOPs), and
+    the button that adds one (at most MAX_FURTHER_FIELDS)."""
+    layout.label(text=f"Further Density Fields ({len(p.grid_fields)} of {MAX_FURTHER_FIELDS})")
+    if len(p.grid_fields):
+        where = "array in the Density File" if p.grid_source == "NPZ" else "grid in the Volume"
+        layout.label(text=f"Each reads the {where} of its name")
+    for i, f in enumerate(p.grid_fields):
+        box = layout.box()
+        row = box.row(align=True)
+        row.prop(f, "name", text=f"Field {i + 1}")
+        row.operator("photic.grid_field_remove", text="", icon="X").index = i
+        _draw_unit_iops(box, f)
+    row = layout.row()
+    row.enabled = len(p.grid_fields) < MAX_FURTHER_FIELDS
+    row.operator("photic.grid_field_add", icon="ADD")
 
 
 class PHOTIC_PT_material(PhoticPanel, bpy.types.Panel):

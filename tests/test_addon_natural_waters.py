@@ -563,7 +563,7 @@ def test_every_frame_read_serves_an_animation_rendered_off_the_main_thread(empty
             bpy.ops.render.render(animation=True)
     assert bpy.ops.photic.read_volume_grids(every_frame=True) == {"FINISHED"}
     assert empty.frame_current == 1 and len(natural_waters._VOLUME_CACHE) == 2
-    assert len({id(v[0]) for v in natural_waters._VOLUME_CACHE.values()}) == 1
+    assert len({id(v["density"][0]) for v in natural_waters._VOLUME_CACHE.values()}) == 1
     with monkeypatch.context() as m:
         m.setattr(volume_grid, "on_main_thread", lambda: False)
         assert_slab_followed(render_animation())
