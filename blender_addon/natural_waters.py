@@ -443,19 +443,26 @@ def grid_box(ex, owner: str, box, bounds) -> tuple[np.ndarray, np.ndarray]:
 
 def _volume_key(box, frame: int, depsgraph) -> tuple:
     """What a cached read of a Volume's grid depends on, as far as can be seen without reading
-    it: the object and its data, the data's file (path, size, time), the frame, the object's
-    transform (as ``depsgraph`` evaluates it: a render's own depsgraph has it at the frame
-    rendered) and modifiers (not their inputs)."""
+    it: the object and its data, the file the frame reads (path, size, time: of a .vdb
+    sequence the frame's own file, as the evaluated Volume chooses it from the sequence
+    settings, which are part of the key too), the frame, the object's transform (as
+    ``depsgraph`` evaluates it: a render's own depsgraph has it at the frame rendered) and
+    modifiers (not their inputs)."""
     volume = box.data
-    matrix = box.evaluated_get(depsgraph).matrix_world
-    path = bpy.path.abspath(volume.filepath, library=volume.library) if volume.filepath else ""
+    ev = box.evaluated_get(depsgraph)
+    matrix = ev.matrix_world
+    path = ""
+    if volume.filepath:
+        path = ev.data.grids.frame_filepath or bpy.path.abspath(volume.filepath, library=volume.library)
     try:
         st = os.stat(path) if path else None
     except OSError:
         st = None
     file = (path, st.st_size, st.st_mtime_ns) if st else (path,)
+    sequence = (volume.is_sequence, volume.frame_start, volume.frame_duration, volume.frame_offset,
+                volume.sequence_mode)
     # (session_uid: the same data-blocks, not others of the same names in a file opened since)
-    return (box.session_uid, volume.session_uid, frame, file, tuple(map(tuple, matrix)),
+    return (box.session_uid, volume.session_uid, frame, file, sequence, tuple(map(tuple, matrix)),
             tuple(box.modifiers.keys()))
 
 
