@@ -24,8 +24,8 @@ Scenes:
   radiometer profile (Ed, Eu, Eo every metre) beside the diver. The README's main job.
 - ``sediment_plume.blend`` and ``sediment_plume.npz`` beside it: a river's sediment plume
   entering clear water near a shore, seen from the air; the sea's IOPs are a clear-water model
-  plus a 3-D density grid (the .npz) times the plume's unit IOPs (river CDOM, mineral
-  particles); radiometers 1 m above the plume and above clear water for Rrs (``plume_rrs``,
+  plus two 3-D density fields on one grid (the .npz): the sediment (mineral particles) and
+  the river water, whose CDOM spreads wider and mixes deeper than the sediment; radiometers 1 m above the plume and above clear water for Rrs (``plume_rrs``,
   ``scripts/plume_rrs_plot.py``; docs/blender.md, "The sediment plume").
 """
 from __future__ import annotations
@@ -167,14 +167,31 @@ def clear_water_model() -> dict:
         {"model": "particles", "b_ref": 0.08, "backscatter_fraction": 0.012, "a_ref": 0.004}]}
 
 
+def sediment_unit_model() -> dict:
+    """What one unit of sediment density adds: mineral particles that scatter strongly
+    (b_p(550) = 8 m^-1, flat spectrum, b_bp/b_p = 0.02) and absorb in the blue (brown non-algal
+    particles, a_NAP(443) = 0.35 m^-1). No pure water: it is in the base IOPs."""
+    return {"model": "particles", "b_ref": 8.0, "exponent": 0.5, "backscatter_fraction": 0.02,
+            "a_ref": 0.35, "water": "none"}
+
+
+def river_cdom_model() -> dict:
+    """What one unit of river water adds: its CDOM (a_g(440) = 0.5 m^-1), no pure water."""
+    return {"model": "cdom", "a_ref": 0.5, "water": "none"}
+
+
 def plume_unit_model() -> dict:
-    """What one unit of plume density adds: river CDOM and mineral particles that scatter
-    strongly (b_p(550) = 8 m^-1, flat spectrum, b_bp/b_p = 0.02) and absorb in the blue (brown
-    non-algal particles, a_NAP(443) = 0.35 m^-1). No pure water: it is in the base IOPs."""
-    return {"model": "mixture", "water": "none", "components": [
-        {"model": "cdom", "a_ref": 0.5},
-        {"model": "particles", "b_ref": 8.0, "exponent": 0.5, "backscatter_fraction": 0.02,
-         "a_ref": 0.35}]}
+    """Sediment and river CDOM per unit density in one field, as if the CDOM followed the
+    sediment (the example's single-field form, which scripts/grid_cost.py measures)."""
+    parts = [river_cdom_model(), sediment_unit_model()]
+    for part in parts:
+        del part["water"]
+    return {"model": "mixture", "water": "none", "components": parts}
+
+
+# The river water (and its CDOM) spreads wider and mixes deeper than the sediment, which
+# settles out of the fresh surface layer: the example's second density field.
+CDOM_SPREAD, CDOM_LENS = 1.6, 1.5
 
 
 def _smooth_noise(shape, sigmas, rng) -> np.ndarray:
@@ -190,13 +207,16 @@ def _smooth_noise(shape, sigmas, rng) -> np.ndarray:
     return out / out.std()
 
 
-def plume_density(shape=PLUME_GRID_SHAPE, seed: int = 7) -> np.ndarray:
-    """The plume's density on the grid (float32, 1 in the river, decaying offshore).
+def plume_density(shape=PLUME_GRID_SHAPE, seed: int = 7, spread: float = 1.0,
+                  lens: float = 1.0) -> np.ndarray:
+    """The plume's sediment density on the grid (float32, 1 in the river, decaying offshore).
 
     In the jet's own coordinates, s along its bending centreline from the mouth and n across
     it: a Gaussian across of width 5 + 0.28 s m, diluting as 1 / (1 + s / 70 m), its edges
     meandered and its body broken into eddies by smooth noise; the buoyant fresh water keeps
     the sediment in a surface layer exp(-(depth / h)^2) thickening from h = 1 m at the mouth.
+    ``spread`` and ``lens`` widen the Gaussian and thicken the layer by those factors (the
+    river water itself: CDOM_SPREAD, CDOM_LENS), with the same meanders and eddies.
     """
     rng = np.random.default_rng(seed)
     nx, ny, nz = shape
@@ -216,7 +236,7 @@ def plume_density(shape=PLUME_GRID_SHAPE, seed: int = 7) -> np.ndarray:
     s = s_line[nearest]
     h = heading[nearest]
     n = -(xx - x_line[nearest]) * np.sin(h) + (yy - y_line[nearest]) * np.cos(h)
-    width = 5.0 + 0.28 * s
+    width = (5.0 + 0.28 * s) * spread
     cells = 128.0 / nx  # noise widths scale with the resolution so the field looks the same
     meander = _smooth_noise((nx, ny), (6.0 / cells, 3.0 / cells, 1.5 / cells), rng)
     eddies = _smooth_noise((nx, ny), (4.0 / cells, 2.0 / cells, 1.0 / cells), rng)
@@ -225,7 +245,7 @@ def plume_density(shape=PLUME_GRID_SHAPE, seed: int = 7) -> np.ndarray:
     column = np.where(yy > 0.0, (np.abs(xx) < 9.0).astype(float), column)  # the river itself
     fade = np.clip(np.minimum(xx - origin[0], origin[0] + size[0] - xx) / 20.0, 0.0, 1.0)
     fade *= np.clip((yy - origin[1]) / 20.0, 0.0, 1.0)  # no hard edges at the box's sides
-    thickness = 1.0 + 0.015 * s
+    thickness = (1.0 + 0.015 * s) * lens
     depth = np.clip(-z, 0.0, None)
     rho = (column * fade)[:, :, None] * np.exp(-(depth / thickness[:, :, None]) ** 2)
     return np.clip(rho, 0.0, None).astype(np.float32)
@@ -319,7 +339,8 @@ def build_sediment_plume(out_dir: Path, grid_shape=PLUME_GRID_SHAPE) -> Path:
     from photic.scene import Scene
 
     out_dir.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(out_dir / "sediment_plume.npz", density=plume_density(grid_shape))
+    np.savez_compressed(out_dir / "sediment_plume.npz", density=plume_density(grid_shape),
+                        cdom=plume_density(grid_shape, spread=CDOM_SPREAD, lens=CDOM_LENS))
     bpy.ops.wm.read_homefile(use_empty=True)
     bscene = bpy.context.scene
     created = importer.import_scene(Scene.from_dict(plume_scene_dict()), bscene)
@@ -332,7 +353,9 @@ def build_sediment_plume(out_dir: Path, grid_shape=PLUME_GRID_SHAPE) -> Path:
     p.iop_source, p.iop_model = "MODEL", json.dumps(clear_water_model())
     p.iop_variation, p.grid_source, p.grid_box = "GRID", "NPZ", box
     p.grid_file = "//sediment_plume.npz"  # beside the .blend
-    p.unit_source, p.unit_model = "MODEL", json.dumps(plume_unit_model())
+    p.unit_source, p.unit_model = "MODEL", json.dumps(sediment_unit_model())
+    cdom = p.grid_fields.add()  # the river water's CDOM: a second field, array 'cdom'
+    cdom.name, cdom.unit_source, cdom.unit_model = "cdom", "MODEL", json.dumps(river_cdom_model())
     path = out_dir / "sediment_plume.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)
     print(f"wrote {path}")

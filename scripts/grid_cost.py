@@ -19,8 +19,10 @@ IOPs, base + mean(rho) x unit, with the grid's components) and compares the grid
 homogeneous render that differs from the grid's in the grid alone (the plume's extra
 scattering and phase functions are in both).
 ``--cdom`` also renders each grid with a second density field on its voxels (a CDOM-like
-absorber spread wider than the first field: a box blur over n/16 voxels across) and compares it
-with the one-field grid: the cost of a further field.
+absorber spread wider than the first field: a box blur over n/16 voxels across; for the
+example its own river-water field, with the sediment alone in the first: the example as
+``sediment_plume.blend`` holds it) and compares it with the one-field grid: the cost of a
+further field.
 ``--bands N`` renders N bands with the same IOPs in each (one geometric path serves them all,
 as in spectral scenes). ``--what example`` renders the sediment-plume example's scene instead
 (``example_blends/make_examples.py``: shore, 10 bands, Case-2 IOP models, a camera above the sea
@@ -95,7 +97,6 @@ def companion(rho: np.ndarray) -> np.ndarray:
 
 
 CDOM_UNIT = {"absorption": [0.3], "scattering": [{"b": [0.0], "phase": HG}, {"b": [0.0], "phase": WATER}]}
-CDOM_MODEL = {"model": "cdom", "a_ref": 0.3, "water": "none"}
 
 
 @functools.lru_cache(maxsize=1)
@@ -125,11 +126,14 @@ def example_scene(integrator: str, density_file: Path | None) -> Scene:
     del water["iops"]
     if density_file is None:  # the clear water the plume enters
         water["iop_model"] = ex.clear_water_model()
-    else:
-        water["iop_grid"] = _with_cdom({"base": {"iop_model": ex.clear_water_model()},
-                                        "unit": {"iop_model": ex.plume_unit_model()},
-                                        "origin": list(ex.PLUME_BOX_ORIGIN), "size": list(ex.PLUME_BOX_SIZE),
-                                        "file": density_file.name}, density_file, {"iop_model": CDOM_MODEL})
+    else:  # one field (CDOM following the sediment), or two as in the example's .blend
+        grid = _with_cdom({"base": {"iop_model": ex.clear_water_model()},
+                           "unit": {"iop_model": ex.plume_unit_model()},
+                           "origin": list(ex.PLUME_BOX_ORIGIN), "size": list(ex.PLUME_BOX_SIZE),
+                           "file": density_file.name}, density_file, {"iop_model": ex.river_cdom_model()})
+        if "fields" in grid:
+            grid["unit"] = {"iop_model": ex.sediment_unit_model()}
+        water["iop_grid"] = grid
     d["settings"].update(integrator=integrator, radiometer_samples=100_000)
     return Scene.from_dict(d, base_dir=density_file.parent if density_file else None)
 
@@ -231,7 +235,9 @@ def main(argv=None) -> int:
         np.savez(fields[name], density=rho)
         if args.cdom:  # the same grid with a second field
             two = name + CDOM
-            cdom = companion(rho)
+            ex = _examples()
+            cdom = (ex.plume_density((args.n,) * 3, spread=ex.CDOM_SPREAD, lens=ex.CDOM_LENS)
+                    if args.what == "example" else companion(rho))
             nz[two] = float(np.count_nonzero((rho > 0) | (cdom > 0))) / rho.size
             fields[two] = tmp / (two.replace(" ", "_").replace("+", "") + ".npz")
             np.savez(fields[two], density=rho, cdom=cdom)
