@@ -574,9 +574,10 @@ def test_every_frame_read_serves_an_animation_rendered_off_the_main_thread(empty
     assert empty.frame_current == 1
 
 
-def bake_to_vdb(vol, directory: Path) -> Path:
-    """Bakes a Volume's geometry-node grids to disk (a Bake node before the group's output):
-    Blender writes them as a .vdb file, whose path is returned."""
+def bake_grids(vol, directory: Path, mode: str = "STILL") -> list[Path]:
+    """Bakes a Volume's geometry-node grids to disk (a Bake node before the group's output;
+    ``mode`` 'STILL' or 'ANIMATION' over the scene's frame range): Blender writes them as
+    .vdb files (one per frame), whose paths are returned in order."""
     mod = vol.modifiers[0]
     tree = mod.node_group
     out = next(n for n in tree.nodes if n.bl_idname == "NodeGroupOutput")
@@ -586,11 +587,17 @@ def bake_to_vdb(vol, directory: Path) -> Path:
     tree.links.new(made, bake.inputs[0])
     tree.links.new(bake.outputs[0], out.inputs[0])
     mod.bake_target, mod.bake_directory = "DISK", str(directory)
-    mod.bakes[0].bake_mode = "STILL"
+    mod.bakes[0].bake_mode = mode
     with bpy.context.temp_override(object=vol, active_object=vol):
-        bpy.ops.object.geometry_node_bake_single(session_uid=vol.session_uid, modifier_name=mod.name,
-                                                 bake_id=mod.bakes[0].bake_id)
-    vdb, = directory.rglob("*.vdb")
+        assert bpy.ops.object.geometry_node_bake_single(
+            session_uid=vol.session_uid, modifier_name=mod.name,
+            bake_id=mod.bakes[0].bake_id) == {"FINISHED"}
+    return sorted(directory.rglob("*.vdb"))
+
+
+def bake_to_vdb(vol, directory: Path) -> Path:
+    """A Volume's geometry-node grids baked to one .vdb file, its path."""
+    vdb, = bake_grids(vol, directory)
     return vdb
 
 

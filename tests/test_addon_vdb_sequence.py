@@ -18,8 +18,8 @@ import pytest
 
 import bpy  # noqa: E402  (a requirement, as in test_addon.py)
 
-from test_addon_natural_waters import (assert_slab_followed, empty, export, grid_sea,  # noqa: F401
-                                       link, photic, render_animation, sunlit_volume_slab,
+from test_addon_natural_waters import (assert_slab_followed, bake_grids, empty, export,  # noqa: F401
+                                       grid_sea, link, photic, render_animation, sunlit_volume_slab,
                                        volume_with_cube_grid)
 
 
@@ -42,21 +42,7 @@ def bake_sequence(vol, directory: Path, frames: range) -> list[Path]:
     ``directory``/plume_NNNN.vdb with NNNN the frame. Returns those files, by frame."""
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = frames[0], frames[-1]
-    mod = vol.modifiers[0]
-    tree = mod.node_group
-    out = next(n for n in tree.nodes if n.bl_idname == "NodeGroupOutput")
-    made = out.inputs[0].links[0].from_socket
-    bake = tree.nodes.new("GeometryNodeBake")
-    bake.bake_items.new("GEOMETRY", "Geometry")
-    tree.links.new(made, bake.inputs[0])
-    tree.links.new(bake.outputs[0], out.inputs[0])
-    mod.bake_target, mod.bake_directory = "DISK", str(directory / "bake")
-    mod.bakes[0].bake_mode = "ANIMATION"
-    with bpy.context.temp_override(object=vol, active_object=vol):
-        assert bpy.ops.object.geometry_node_bake_single(
-            session_uid=vol.session_uid, modifier_name=mod.name,
-            bake_id=mod.bakes[0].bake_id) == {"FINISHED"}
-    baked = sorted((directory / "bake").rglob("*.vdb"))  # blobs/FFFFF_00000_file_1.vdb
+    baked = bake_grids(vol, directory / "bake", "ANIMATION")  # blobs/FFFFF_00000_file_1.vdb
     assert [int(p.name.split("_")[0]) for p in baked] == list(frames), baked
     files = []
     for frame, vdb in zip(frames, baked):
