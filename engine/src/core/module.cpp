@@ -224,22 +224,30 @@ PYBIND11_MODULE(_core, m) {
            "A layer of stratified water below the previous one: its IOPs for z <= z_top (m), one "
            "scattering spectrum per component (the components' phase functions are the water's).")
         .def("set_water_grid", [](Scene& s, int water, std::array<double, 3> lo, std::array<double, 3> hi,
-                                  py::array_t<float, py::array::c_style | py::array::forcecast> rho,
+                                  std::vector<py::array_t<float, py::array::c_style | py::array::forcecast>> rho,
                                   std::vector<DArray> a, std::vector<std::vector<DArray>> b, int threads) {
             if (water < 0 || water >= int(s.waters.size())) throw std::invalid_argument("bad water index");
             Water& w = s.waters[water];
-            if (rho.ndim() != 4) throw std::invalid_argument("the densities must be an (fields, nx, ny, nz) array");
-            const int nf = int(rho.shape(0));
+            const int nf = int(rho.size());
             if (nf < 1 || nf > VoxelGrid::kMaxFields)
                 throw std::invalid_argument("a grid holds 1 to 4 density fields");
             if (int(a.size()) != nf || int(b.size()) != nf)
                 throw std::invalid_argument("the grid needs unit IOPs (absorption, scattering) per density field");
             int n[3];
+            const float* fields[VoxelGrid::kMaxFields];
+            for (int f = 0; f < nf; ++f) {
+                if (rho[f].ndim() != 3) throw std::invalid_argument("each density must be an (nx, ny, nz) array");
+                for (int ax = 0; ax < 3; ++ax) {
+                    if (f == 0) n[ax] = int(rho[f].shape(ax));
+                    else if (rho[f].shape(ax) != n[ax])
+                        throw std::invalid_argument("the density fields must have one shape");
+                }
+                fields[f] = rho[f].data();
+            }
             for (int ax = 0; ax < 3; ++ax) {
                 if (!(hi[ax] > lo[ax]) || !std::isfinite(lo[ax]) || !std::isfinite(hi[ax]))
                     throw std::invalid_argument("the grid's box must have finite corners with hi > lo");
-                if (rho.shape(ax + 1) < 1) throw std::invalid_argument("the grid needs at least one voxel per axis");
-                n[ax] = int(rho.shape(ax + 1));
+                if (n[ax] < 1) throw std::invalid_argument("the grid needs at least one voxel per axis");
             }
             std::vector<WaterLayer> units(nf);
             for (int f = 0; f < nf; ++f) {
@@ -259,7 +267,7 @@ PYBIND11_MODULE(_core, m) {
             auto g = std::make_shared<VoxelGrid>();
             {
                 py::gil_scoped_release release;
-                g->build(lo.data(), hi.data(), n, rho.data(), threads, nf);  // checks the densities
+                g->build(lo.data(), hi.data(), n, fields, nf, threads);  // checks the densities
             }
             w.grid_units = std::move(units);
             w.grid_nf = nf;
@@ -267,7 +275,8 @@ PYBIND11_MODULE(_core, m) {
         }, py::arg("water"), py::arg("lo"), py::arg("hi"), py::arg("density"), py::arg("absorption"),
            py::arg("scattering"), py::arg("threads") = 0,
            "3-D IOPs of a water body over the box [lo, hi] from F density fields on one lattice "
-           "(density[f, i, j, k], x fastest varying in i): per voxel its IOPs are the base (its "
+           "(a list of F arrays density[f][i, j, k] of one shape, x fastest varying in i; "
+           "float32 C-ordered ones are read in place): per voxel its IOPs are the base (its "
            "layer at that height, if it has several) plus, per field, its density times the "
            "field's unit IOPs (absorption[f]: a spectrum; scattering[f]: one spectrum per "
            "component). Built on `threads` threads (0: all cores).")

@@ -61,11 +61,12 @@ struct VoxelGrid {
     float rho_min[kMaxFields] = {}, rho_max[kMaxFields] = {};  // per field
     size_t brick_floats() const { return size_t(nfields) * kB3; }
 
-    // The grid over [lo_, hi_] from densities rho[((f * n0 + i) * n1 + j) * n2 + k] of
-    // `fields` fields (not kept); throws std::invalid_argument for a density that is negative
-    // or not finite. Slabs of bricks along x on `threads` threads (0: all cores).
-    void build(const double* lo_, const double* hi_, const int* n_, const float* rho, int threads = 1,
-               int fields = 1) {
+    // The grid over [lo_, hi_] from the densities rho[f][(i * n1 + j) * n2 + k] of `fields`
+    // fields (arrays of their own: the caller's, not copied into one; not kept); throws
+    // std::invalid_argument for a density that is negative or not finite. Slabs of bricks
+    // along x on `threads` threads (0: all cores).
+    void build(const double* lo_, const double* hi_, const int* n_, const float* const* rho, int fields = 1,
+               int threads = 1) {
         if (fields < 1 || fields > kMaxFields) throw std::invalid_argument("a grid holds 1 to 4 density fields");
         nfields = fields;
         for (int a = 0; a < 3; ++a) {
@@ -83,7 +84,6 @@ struct VoxelGrid {
         const size_t nbricks = size_t(nb[0]) * nb[1] * nb[2];
         constexpr int M = B - 1;
         std::vector<uint8_t> brick_used(nbricks, 0);
-        const size_t nvox = size_t(n[0]) * n[1] * n[2];  // one field's
         struct alignas(64) Slab {  // what a slab found (cache lines of its own: no false sharing)
             float lo_v[kMaxFields], hi_v[kMaxFields];
             bool bad = false;
@@ -91,18 +91,18 @@ struct VoxelGrid {
             Slab() { std::fill(lo_v, lo_v + kMaxFields, kInfF); std::fill(hi_v, hi_v + kMaxFields, -kInfF); }
         };
         std::vector<Slab> slabs(nb[0]);
-        auto rows = [&](int ib, auto&& row_fn) {  // the rows (i, j) of slab ib: field 0's
-            const float* r = rho + size_t(ib) * B * n[1] * n[2];
+        auto rows = [&](int ib, auto&& row_fn) {  // the rows (i, j) of slab ib, by offset
+            size_t off = size_t(ib) * B * n[1] * n[2];
             for (int i = ib * B; i < std::min(n[0], ib * B + B); ++i)
-                for (int j = 0; j < n[1]; ++j, r += n[2]) row_fn(i, j, r);
+                for (int j = 0; j < n[1]; ++j, off += n[2]) row_fn(i, j, off);
         };
         parallel_for(size_t(nb[0]), threads, [&](size_t ib, int) {
             Slab& sl = slabs[ib];
-            rows(int(ib), [&](int i, int j, const float* r0) {
+            rows(int(ib), [&](int i, int j, size_t off) {
                 const size_t row = (size_t(i >> kShift) * nb[1] + (j >> kShift)) * nb[2];
                 int kfirst = n[2], klast = -1;
                 for (int f = 0; f < nfields; ++f) {
-                    const float* r = r0 + f * nvox;
+                    const float* r = rho[f] + off;
                     // The row's smallest and largest value in a loop the compiler vectorises
                     // (NaN fails both comparisons, so it is counted apart); most rows of a
                     // sparse field are all zero and end there.
@@ -159,7 +159,7 @@ struct VoxelGrid {
                     for (int j = 0; j < nb[1] * B; ++j) {
                         const int i = int(ib) * B + li;
                         const bool inside = i < n[0] && j < n[1];
-                        const float* r = inside ? rho + f * nvox + (size_t(i) * n[1] + j) * n[2] : nullptr;
+                        const float* r = inside ? rho[f] + (size_t(i) * n[1] + j) * n[2] : nullptr;
                         const size_t row = (ib * nb[1] + (j >> kShift)) * nb[2];
                         const int local_ij = f * kB3 + (li * B + (j & M)) * B;
                         for (int kb = 0; kb < nb[2]; ++kb) {
@@ -599,7 +599,7 @@ void VoxelGrid::Cursor::walk_fields(double te, double s0, const double* s1_in, d
             const float* v = &g.bricks[size_t(g.brick_slot[b]) * (F * kB3)];
             bool stop = false;
             // The voxel's part [t, tb) with densities rho: true if the walk stops in it.
-            auto voxel = [&](const double* rho, double tn) {
+            auto voxel = [&](const double* rho, double tn) __attribute__((always_inline)) {
                 const double tb = std::min(tn, tv);
                 if (kTrack) {
                     double sig = s0;

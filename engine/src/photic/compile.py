@@ -87,13 +87,8 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
         if grid is not None:  # 3-D IOPs: base + each field's density x its unit over the box
             origin = np.asarray(grid.origin, dtype=np.float64)
             units = grid.units()
-            densities = grid.densities()
-            if len(densities) == 1:  # (a view: no copy of a large field)
-                rho = np.ascontiguousarray(densities[0], dtype=np.float32)[np.newaxis]
-            else:
-                rho = np.empty((len(densities),) + tuple(densities[0].shape), dtype=np.float32)
-                for f, dens in enumerate(densities):
-                    rho[f] = dens
+            # each field as it is (float32 C-ordered: read in place, no copy of a large field)
+            rho = [np.ascontiguousarray(d, dtype=np.float32) for d in grid.densities()]
             core.set_water_grid(wi, origin.tolist(), (origin + grid.size).tolist(), rho,
                                 [sel(u.absorption) for u in units],
                                 [[sel(c.b) for c in u.scattering] or [np.zeros(nb)] for u in units],
