@@ -62,8 +62,8 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
     const Vec3 x = o + d * t;
     int n = beams_at(x, medium, beams, kMaxBeams);
     if (n == 0) return;
-    // The local scattering at x (in a grid the base's plus the density rx times the unit's)
-    // and the attenuation back to o (through the layers or voxels crossed).
+    // The local scattering at x (in a grid the base's plus each field's density rx[f] times
+    // its unit's) and the attenuation back to o (through the layers or voxels crossed).
     const WaterLayer& L = w.layer_at(x.z);
     double rx[VoxelGrid::kMaxFields];
     const bool in_field = w.grid && w.grid->at(x, rx);
