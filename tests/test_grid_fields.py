@@ -238,3 +238,16 @@ def test_missing_npz_key_is_a_scene_error(tmp_path):
     del d["water"][0]["iop_grid"]["density"]
     with pytest.raises(SceneError, match=r"iop_grid.fields\[0\].key.*no array 'cdom'"):
         Scene.from_dict(d, base_dir=tmp_path)
+
+
+@pytest.mark.parametrize("bad", [float("nan"), -1.0, float("inf")])
+def test_core_refuses_bad_densities_in_a_further_field(bad):
+    """The core checks every field itself (a scene changed after validation): a NaN, negative
+    or infinite value in the second field, where the first is clean, is refused."""
+    from photic.compile import compile_scene
+    rho = np.zeros((3, 4, 40))
+    rho[1, 2, 5] = 1.0
+    sc = Scene.from_dict(_fields(absorbing_grid(rho, BOX), ("cdom", mixture(0.5, 0.0, 0.0), rho)))
+    sc.water[0].iops.extra_fields[0].density[2, 3, 37] = bad
+    with pytest.raises(ValueError, match="finite and >= 0"):
+        compile_scene(sc)
