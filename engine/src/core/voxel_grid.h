@@ -18,10 +18,10 @@
 
 namespace photic {
 
-// Per voxel one density rho_f >= 0 per field; outside the box rho = 0. Empty space is skipped at three
-// levels, so that a sparse plume costs little where rays miss it: the box of the non-empty
-// voxels, bricks of B^3 voxels (only non-empty ones are stored), and per empty brick the
-// radius of the empty cube of bricks around it, which a walk crosses in one jump.
+// Per voxel one density rho_f >= 0 per field; outside the box rho = 0. Empty space is skipped
+// at three levels, so that a sparse plume costs little where rays miss it: the box of the
+// non-empty voxels, bricks of B^3 voxels (only non-empty ones are stored), and per empty brick
+// the radius of the empty cube of bricks around it, which a walk crosses in one jump.
 struct VoxelGrid {
     static constexpr int B = 8;        // voxels per brick edge (a power of 2)
     static constexpr int kShift = 3;   // log2(B)
