@@ -514,6 +514,65 @@ def volume_grid_names(p) -> dict:
     return names
 
 
+def _npz_headers(path: Path) -> dict:
+    """{array name: (shape, dtype)} of a .npz's arrays, from the arrays' headers (no voxels
+    read; an array whose header cannot be parsed alone is loaded)."""
+    import zipfile
+    fmt = np.lib.format
+    out = {}
+    with zipfile.ZipFile(path) as zf:
+        for info in zf.infolist():
+            if not info.filename.endswith(".npy"):
+                continue
+            name = info.filename[:-4]
+            try:
+                with zf.open(info) as f:
+                    version = fmt.read_magic(f)
+                    read = {(1, 0): fmt.read_array_header_1_0,
+                            (2, 0): fmt.read_array_header_2_0}[version]
+                    shape, _, dtype = read(f)
+            except Exception:  # another format version: load that array
+                with np.load(path, allow_pickle=False) as z:
+                    a = z[name]
+                shape, dtype = a.shape, a.dtype
+            out[name] = (tuple(shape), np.dtype(dtype))
+    return out
+
+
+def source_field_names(p, depsgraph) -> tuple[list[str], str]:
+    """The names a further density field could read from a water object's grid source, other
+    than 'density', in the source's order: the 3-D numeric arrays of the Density File with the
+    density's shape, or the float grids of the Grid Box's Volume (its evaluated grids, no voxel
+    read); and the source in words. A ValueError says why there is no source to list."""
+    if p.grid_source == "NPZ":
+        if not p.grid_file.strip():
+            raise ValueError("no Density File (.npz) chosen")
+        path = _abspath(p.grid_file)
+        if not path.is_file():
+            raise ValueError(f"the Density File {path} does not exist")
+        try:
+            headers = _npz_headers(path)
+        except Exception as exc:  # not a zip, a damaged archive
+            raise ValueError(f"cannot read the Density File {path}: {exc}") from None
+        if "density" not in headers:
+            raise ValueError(f"the Density File {path} has no array 'density' (it has: "
+                             f"{', '.join(headers) or 'none'})")
+        shape = headers["density"][0]
+        names = [n for n, (s, dt) in headers.items()
+                 if n != "density" and s == shape and dt.kind in "iuf"]
+        return names, f"the Density File {path.name}"
+    box = p.grid_box
+    if box is None or box.type != "VOLUME":
+        raise ValueError("no Volume object as the Grid Box")
+    grids = box.evaluated_get(depsgraph).data.grids
+    try:
+        grids.load()  # a file-based volume's grids (the evaluated ones are loaded already)
+    except RuntimeError:
+        pass
+    names = [g.name for g in grids if g.data_type == "FLOAT" and g.name != "density"]
+    return list(dict.fromkeys(names)), f"Volume '{box.name}'"
+
+
 def read_volumes(scene, force: bool = True, keys: list | None = None) -> list:
     """Reads, on Blender's main thread, the 'density' grid and the further density fields'
     grids of every Volume that a water object of ``scene`` (original) takes its grid from,

@@ -123,6 +123,50 @@ class PHOTIC_OT_grid_field_add(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class PHOTIC_OT_grid_fields_from_source(bpy.types.Operator):
+    """Add a further density field for each float array of the Density File (3-D, the
+    density's shape) or each float grid of the Grid Box's Volume other than 'density', with
+    the default unit IOPs; names already present are skipped, at most 3 fields in all"""
+
+    bl_idname = "photic.grid_fields_from_source"
+    bl_label = "Add Fields from Source"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        p = _water_props(context)
+        return p is not None and p.iop_variation in {"GRID", "PROFILE_GRID"}
+
+    def execute(self, context):
+        p = _water_props(context)
+        try:
+            names, where = natural_waters.source_field_names(
+                p, context.evaluated_depsgraph_get())
+        except ValueError as exc:
+            self.report({"WARNING"}, f"Photic: no fields added: {exc}")
+            return {"CANCELLED"}
+        present = {f.name for f in p.grid_fields}
+        new = [n for n in names if n not in present]
+        room = max(0, MAX_FURTHER_FIELDS - len(p.grid_fields))
+        added, skipped = new[:room], new[room:]
+        for name in added:
+            p.grid_fields.add().name = name  # the other properties keep their defaults
+        full = (f"at most {MAX_FURTHER_FIELDS} further fields: not added "
+                f"{', '.join(skipped)}" if skipped else "")
+        if added:
+            self.report({"INFO"}, f"Photic: added density fields {', '.join(added)} from "
+                                  f"{where}" + (f" ({full})" if full else ""))
+            return {"FINISHED"}
+        if full:
+            why = full
+        elif names:
+            why = f"every field of {where} is present already ({', '.join(names)})"
+        else:
+            why = f"{where} holds no field but 'density'"
+        self.report({"WARNING"}, f"Photic: no fields added: {why}")
+        return {"CANCELLED"}
+
+
 class PHOTIC_OT_grid_field_remove(bpy.types.Operator):
     """Remove this further density field from the water's 3-D grid"""
 
@@ -185,7 +229,7 @@ def menu_export(self, context):
 
 
 classes = (PHOTIC_OT_export_scene, PHOTIC_OT_read_volume_grids, PHOTIC_OT_grid_field_add,
-           PHOTIC_OT_grid_field_remove, PHOTIC_OT_import_scene)
+           PHOTIC_OT_grid_fields_from_source, PHOTIC_OT_grid_field_remove, PHOTIC_OT_import_scene)
 
 
 def register():

@@ -260,7 +260,8 @@ def _draw_unit_iops(layout, q) -> None:
 
 def _draw_further_fields(layout, p) -> None:
     """The grid's further density fields, one box each (name, remove button, unit IOPs), and
-    the button that adds one (at most MAX_FURTHER_FIELDS)."""
+    the buttons that add one or one per array or grid of the source (at most
+    MAX_FURTHER_FIELDS)."""
     layout.label(text=f"Further Density Fields ({len(p.grid_fields)} of {MAX_FURTHER_FIELDS})")
     if len(p.grid_fields):
         where = "array in the Density File" if p.grid_source == "NPZ" else "grid in the Volume"
@@ -271,9 +272,11 @@ def _draw_further_fields(layout, p) -> None:
         row.prop(f, "name", text=f"Field {i + 1}")
         row.operator("photic.grid_field_remove", text="", icon="X").index = i
         _draw_unit_iops(box, f)
-    row = layout.row()
-    row.enabled = len(p.grid_fields) < MAX_FURTHER_FIELDS
-    row.operator("photic.grid_field_add", icon="ADD")
+    row = layout.row(align=True)
+    add = row.row(align=True)
+    add.enabled = len(p.grid_fields) < MAX_FURTHER_FIELDS
+    add.operator("photic.grid_field_add", icon="ADD")
+    row.operator("photic.grid_fields_from_source", icon="IMPORT")
 
 
 class PHOTIC_PT_material(PhoticPanel, bpy.types.Panel):

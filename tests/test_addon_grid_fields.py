@@ -511,9 +511,75 @@ def test_panel_and_operators_add_draw_and_remove_fields(empty):
     assert shown.count("name") == 3 and shown.count("photic.grid_field_remove") == 3
     assert shown.count("unit_model") == 2  # two further fields (the first has coefficients)
     assert "unit_hg_g" in shown and "photic.grid_field_add" in shown
+    assert "photic.grid_fields_from_source" in shown
     assert bpy.ops.photic.grid_field_remove(index=1) == {"FINISHED"}
     assert [f.name for f in p.grid_fields] == ["cdom", "field3"]
     assert bpy.ops.photic.grid_field_add() == {"FINISHED"}
     assert [f.name for f in p.grid_fields] == ["cdom", "field3", "field2"]
     p.role = "RADIOMETER"
     assert not bpy.ops.photic.grid_field_add.poll()
+
+
+def fields_from_source(sea):
+    """Runs 'Add Fields from Source' on ``sea`` as the panel's button does: its result and
+    its reports ((type, message) each)."""
+    from photic_blender.operators import PHOTIC_OT_grid_fields_from_source as op
+    bpy.context.view_layer.objects.active = sea
+    assert op.poll(bpy.context)
+    reports = []
+    me = SimpleNamespace(report=lambda kind, text: reports.append((kind, text)))
+    return op.execute(me, bpy.context), reports
+
+
+def test_fields_from_the_npz_add_its_other_3d_arrays(empty, tmp_path):
+    """'Add Fields from Source' over an .npz with 'density', 'cdom', 'chl' and a 2-D 'meta':
+    adds 'cdom' and 'chl' (not 'meta') with the default unit IOPs; a second press adds
+    nothing and says why; the limit of 3 further fields is kept, naming what it left out."""
+    sea = grid_sea(tmp_path)
+    cube = np.ones((4, 3, 2), np.float32)
+    np.savez(tmp_path / "plume.npz", density=cube, cdom=cube, chl=2 * cube, meta=np.ones((4, 3)))
+    p = sea.photic
+    bpy.context.view_layer.objects.active = sea
+    assert bpy.ops.photic.grid_fields_from_source() == {"FINISHED"}
+    assert [f.name for f in p.grid_fields] == ["cdom", "chl"]
+    default = type(p.grid_fields[0]).bl_rna.properties
+    for f in p.grid_fields:
+        assert f.unit_source == "MODEL" and f.unit_model == default["unit_model"].default
+    done, reports = fields_from_source(sea)
+    assert done == {"CANCELLED"} and [k for k, _ in reports] == [{"WARNING"}]
+    assert "present already (cdom, chl)" in reports[0][1], reports
+    scene, _ = export_water()  # the fields read their arrays
+    assert [f.name for f in scene.water[0].iops.extra_fields] == ["cdom", "chl"]
+    # The limit: one place left for 'sed' and 'tss' after 'cdom', 'chl'.
+    np.savez(tmp_path / "plume.npz", density=cube, cdom=cube, chl=cube, sed=cube, tss=cube)
+    done, reports = fields_from_source(sea)
+    assert done == {"FINISHED"} and [f.name for f in p.grid_fields] == ["cdom", "chl", "sed"]
+    assert reports[0][0] == {"INFO"} and "added density fields sed" in reports[0][1]
+    assert "not added tss" in reports[0][1], reports
+    done, reports = fields_from_source(sea)
+    assert done == {"CANCELLED"} and reports[0][0] == {"WARNING"}
+    assert "at most 3" in reports[0][1] and "not added tss" in reports[0][1], reports
+    # No file, and no grid variation (the button is not offered).
+    p.grid_fields.clear()
+    p.grid_file = ""
+    done, reports = fields_from_source(sea)
+    assert done == {"CANCELLED"} and "no Density File" in reports[0][1] and not p.grid_fields
+    p.iop_variation = "PROFILE"
+    assert not bpy.ops.photic.grid_fields_from_source.poll()
+
+
+def test_fields_from_the_volume_add_its_other_float_grids(empty, tmp_path):
+    """Over a Volume with the float grids 'density' and 'cdom': adds 'cdom'; without a Volume
+    as the Grid Box it adds nothing and says so."""
+    sea = grid_sea(tmp_path)
+    p = sea.photic
+    p.grid_source, p.grid_box = "VOLUME", volume_with_two_grids()
+    done, reports = fields_from_source(sea)
+    assert done == {"FINISHED"} and [f.name for f in p.grid_fields] == ["cdom"]
+    assert "added density fields cdom from Volume 'Plume'" in reports[0][1], reports
+    done, reports = fields_from_source(sea)
+    assert done == {"CANCELLED"} and "present already (cdom)" in reports[0][1]
+    p.grid_box = None
+    done, reports = fields_from_source(sea)
+    assert done == {"CANCELLED"} and reports == [({"WARNING"}, "Photic: no fields added: no "
+                                                               "Volume object as the Grid Box")]
