@@ -42,7 +42,6 @@ P_TABLE_FILE = "Photic > Layer Table File (photic.profile_table_file)"
 P_GRID_FILE = "Photic > Density File (photic.grid_file)"
 P_GRID_SOURCE = "Photic > Density (photic.grid_source)"
 P_GRID_BOX = "Photic > Grid Box (photic.grid_box)"
-P_UNIT_MODEL = "Photic > Unit IOP Model (photic.unit_model)"
 P_FIELDS = "Photic > Further Density Fields (photic.grid_fields)"
 WATER_ROLES = ("WATER_BODY", "WATER_SURFACE")  # the objects that carry IOPs
 
@@ -239,9 +238,9 @@ def _field_label(f, i: int) -> str:
             else f"Photic > Further Density Field {i + 1} > ")
 
 
-def field_prop(f, i: int, attr: str = "name", ui: str = "Name") -> str:
-    """A property of further field ``i`` as errors name it."""
-    return f"{_field_label(f, i)}{ui} (photic.grid_fields[{i}].{attr})"
+def field_prop(f, i: int) -> str:
+    """The name of further field ``i`` as errors name that property."""
+    return f"{_field_label(f, i)}Name (photic.grid_fields[{i}].name)"
 
 
 def field_unit_iops(ex, owner: str, f, i: int):
@@ -347,12 +346,6 @@ def check_density(owner: str, prop: str, density, where: str,
                                        f"({int(neg.sum())} voxel(s) negative); densities "
                                        f"must be >= 0")
     return d
-
-
-def npz_density(owner: str, file_text: str) -> tuple[np.ndarray, str]:
-    """The checked density of a .npz (array 'density') and its absolute path."""
-    (density,), path = npz_arrays(owner, file_text)
-    return density, path
 
 
 def npz_arrays(owner: str, file_text: str, fields=()) -> tuple[list[np.ndarray], str]:
@@ -564,11 +557,8 @@ def source_field_names(p, depsgraph) -> tuple[list[str], str]:
     box = p.grid_box
     if box is None or box.type != "VOLUME":
         raise ValueError("no Volume object as the Grid Box")
-    grids = box.evaluated_get(depsgraph).data.grids
-    try:
-        grids.load()  # a file-based volume's grids (the evaluated ones are loaded already)
-    except RuntimeError:
-        pass
+    from . import volume_grid
+    _, grids = volume_grid.evaluated_grids(box, depsgraph)
     names = [g.name for g in grids if g.data_type == "FLOAT" and g.name != "density"]
     return list(dict.fromkeys(names)), f"Volume '{box.name}'"
 

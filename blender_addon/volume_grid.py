@@ -28,13 +28,20 @@ def on_main_thread() -> bool:
     return threading.current_thread() is threading.main_thread()
 
 
-def _grid_of(volume_obj, depsgraph, name: str):
+def evaluated_grids(volume_obj, depsgraph):
+    """The evaluated Volume object and its grids, loaded (a file's, a sequence's at the frame,
+    or its geometry nodes' output)."""
     ev = volume_obj.evaluated_get(depsgraph)
     grids = ev.data.grids
     try:
         grids.load()  # a file-based volume's grids (the evaluated ones are loaded already)
     except RuntimeError:
         pass
+    return ev, grids
+
+
+def _grid_of(volume_obj, depsgraph, name: str):
+    ev, grids = evaluated_grids(volume_obj, depsgraph)
     names = [g.name for g in grids]
     if name not in names:
         raise VolumeGridError(f"Volume '{volume_obj.name}' has no grid '{name}' (it has: "
