@@ -27,10 +27,11 @@ further field.
 as in spectral scenes). ``--what example`` renders the sediment-plume example's scene instead
 (``example_blends/make_examples.py``: shore, 10 bands, Case-2 IOP models, a camera above the sea
 at 160 x 90 and 16 spp, 5 radiometers above the water at 1e5 samples) with its plume resampled
-to a 256^3 grid, against the same scene with the clear water alone.
+to a 256^3 grid, against the same scene with the clear water alone; with ``--full`` at the
+``.blend``'s own settings (480 x 270 at 96 spp, radiometers at 1e6 samples), as users render it.
 
     .venv/bin/python scripts/grid_cost.py [--n 256] [--repeat 3] [--what both|image|example] [--bands 1]
-                                          [--threads 0] [--mixed] [--cdom] [--json out.json]
+                                          [--threads 0] [--mixed] [--cdom] [--full] [--json out.json]
 """
 from __future__ import annotations
 
@@ -118,10 +119,11 @@ def _with_cdom(grid: dict, density_file: Path, unit: dict) -> dict:
     return grid
 
 
-def example_scene(integrator: str, density_file: Path | None) -> Scene:
-    """The sediment-plume example's scene at 160 x 90, 16 spp, radiometers at 1e5 samples."""
+def example_scene(integrator: str, density_file: Path | None, full: bool = False) -> Scene:
+    """The sediment-plume example's scene at 160 x 90, 16 spp, radiometers at 1e5 samples, or
+    (full) at the .blend's own 480 x 270, 96 spp and 1e6 radiometer samples."""
     ex = _examples()
-    d = ex.plume_scene_dict(resolution=(160, 90), samples=16)
+    d = ex.plume_scene_dict() if full else ex.plume_scene_dict(resolution=(160, 90), samples=16)
     water = d["water"][0]
     del water["iops"]
     if density_file is None:  # the clear water the plume enters
@@ -134,13 +136,16 @@ def example_scene(integrator: str, density_file: Path | None) -> Scene:
         if "fields" in grid:
             grid["unit"] = {"iop_model": ex.sediment_unit_model()}
         water["iop_grid"] = grid
-    d["settings"].update(integrator=integrator, radiometer_samples=100_000)
+    d["settings"].update(integrator=integrator)
+    if not full:
+        d["settings"].update(radiometer_samples=100_000)
     return Scene.from_dict(d, base_dir=density_file.parent if density_file else None)
 
 
-def scene(integrator: str, density_file: Path | None, what: str = "both", bands: int = 1) -> Scene:
+def scene(integrator: str, density_file: Path | None, what: str = "both", bands: int = 1,
+          full: bool = False) -> Scene:
     if what == "example":
-        return example_scene(integrator, density_file)
+        return example_scene(integrator, density_file, full)
     water = {"name": "sea", "type": "ocean", "ior": 1.34, "surface": {"kind": "flat", "z": 0.0}}
     if density_file is None:
         water["iops"] = BASE
@@ -219,8 +224,13 @@ def main(argv=None) -> int:
     ap.add_argument("--cdom", action="store_true",
                     help="also render each grid with a second, CDOM-like density field (the first "
                          "spread wider) and compare it with the one-field grid")
+    ap.add_argument("--full", action="store_true",
+                    help="with --what example: the .blend's own settings (480 x 270 at 96 spp, "
+                         "radiometers at 1e6 samples) instead of the short benchmark's")
     ap.add_argument("--json", help="write the times here")
     args = ap.parse_args(argv)
+    if args.full and args.what != "example":
+        ap.error("--full is for --what example")
     if args.what == "example":  # the example's own bands
         args.bands = len(_examples().PLUME_BANDS)
     tmp = Path(tempfile.mkdtemp(prefix="photic_grid_cost_"))
@@ -253,7 +263,7 @@ def main(argv=None) -> int:
             order = list(fields.items()) if rep % 2 == 0 else list(fields.items())[::-1]
             for name, rho in order:
                 t0 = time.perf_counter()
-                sc = scene(integ, rho, args.what, args.bands)
+                sc = scene(integ, rho, args.what, args.bands, args.full)
                 if name.endswith(MIXED):
                     homogenised(sc)
                 if args.threads:
@@ -267,6 +277,9 @@ def main(argv=None) -> int:
              "image": "160 x 120 camera at 64 spp",
              "example": "the plume example's scene (160 x 90 camera at 16 spp + 5 radiometers "
                         "at 1e5 samples, 10 bands)"}[args.what]
+    if args.full:
+        setup = ("the plume example's scene at the .blend's settings (480 x 270 camera at 96 spp + "
+                 "5 radiometers at 1e6 samples, 10 bands)")
     print(f"\n{args.n}^3 grid, {setup}" + ("" if args.what == "example" else f", {args.bands} band(s)") + ", "
           f"{args.threads or 'all'} thread(s); median of {args.repeat}")
     print("(x homog.: ratio of the medians; paired: median of each repeat's ratio of renders made"
@@ -318,7 +331,8 @@ def main(argv=None) -> int:
                               "render_paired_ratio": paired, "segments_ratio": seg})
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"n": args.n, "repeat": args.repeat, "what": args.what, "bands": args.bands,
+            json.dump({"n": args.n, "repeat": args.repeat, "what": args.what, "full": args.full,
+                       "bands": args.bands,
                        "threads": args.threads, "rows": rows, "against_mixed": mixed}, f, indent=1)
     return 0
 
