@@ -63,6 +63,35 @@ def _wave_update(self, context):
 MAX_FURTHER_FIELDS = 3
 
 
+def _unit_coefficients(per: str, scattering: str, b_default: float) -> dict:
+    """The unit IOPs as coefficients (absorption, scattering, phase function), the same
+    properties on a grid's first field (the object) and on each further field: ``per`` names
+    the density ("per unit density"), ``scattering`` the scattering they add."""
+    return {
+        "unit_absorption": FloatProperty(
+            name="Unit Absorption", default=0.1, min=0.0, soft_max=10.0, precision=4,
+            description=f"Absorption {per} (m^-1) in every band unless given per band"),
+        "unit_absorption_bands": StringProperty(
+            name="Unit Absorption per Band",
+            description=f"Absorption {per} (m^-1), one per band separated by commas"),
+        "unit_scattering": FloatProperty(
+            name="Unit Scattering", default=b_default, min=0.0, soft_max=100.0, precision=4,
+            description=f"Scattering {per} (m^-1) in every band unless given per band"),
+        "unit_scattering_bands": StringProperty(
+            name="Unit Scattering per Band",
+            description=f"Scattering {per} (m^-1), one per band separated by commas"),
+        "unit_phase_function": EnumProperty(
+            name="Unit Phase Function", items=PHASE_FUNCTIONS, default="fournier_forand",
+            description=f"Phase function of {scattering}"),
+        "unit_hg_g": FloatProperty(
+            name="Unit Asymmetry g", default=0.9, min=-0.99, max=0.99, precision=3,
+            description=f"Henyey-Greenstein g of {scattering}, in [-0.99, 0.99]"),
+        "unit_ff_backscatter": FloatProperty(
+            name="Unit Backscatter Fraction", default=0.02, min=0.0001, max=0.15, precision=4,
+            description=f"Fournier-Forand backscatter fraction of {scattering}, in [0.0001, 0.15]"),
+    }
+
+
 class PhoticGridField(bpy.types.PropertyGroup):
     """A further density field of a water object's 3-D grid: its densities (the array or
     Volume grid of its name) times its own unit IOPs are added to the IOPs, on the voxels of
@@ -88,33 +117,8 @@ class PhoticGridField(bpy.types.PropertyGroup):
                     "(docs/iop-models.md), e.g. {\"model\": \"cdom\", \"a_ref\": 0.5} (CDOM "
                     "absorbing 0.5 m^-1 at 440 nm per unit density); pure water is not added "
                     "unless it names \"water\"")
-    unit_absorption: FloatProperty(
-        name="Unit Absorption", default=0.1, min=0.0, soft_max=10.0, precision=4,
-        description="Absorption per unit of this field's density (m^-1) in every band unless "
-                    "given per band")
-    unit_absorption_bands: StringProperty(
-        name="Unit Absorption per Band",
-        description="Absorption per unit of this field's density (m^-1), one per band "
-                    "separated by commas")
-    unit_scattering: FloatProperty(
-        name="Unit Scattering", default=0.0, min=0.0, soft_max=100.0, precision=4,
-        description="Scattering per unit of this field's density (m^-1) in every band unless "
-                    "given per band")
-    unit_scattering_bands: StringProperty(
-        name="Unit Scattering per Band",
-        description="Scattering per unit of this field's density (m^-1), one per band "
-                    "separated by commas")
-    unit_phase_function: EnumProperty(name="Unit Phase Function", items=PHASE_FUNCTIONS,
-                                      default="fournier_forand",
-                                      description="Phase function of this field's scattering")
-    unit_hg_g: FloatProperty(name="Unit Asymmetry g", default=0.9, min=-0.99, max=0.99,
-                             precision=3, description="Henyey-Greenstein g of this field's "
-                                                      "scattering, in [-0.99, 0.99]")
-    unit_ff_backscatter: FloatProperty(
-        name="Unit Backscatter Fraction", default=0.02, min=0.0001, max=0.15, precision=4,
-        description="Fournier-Forand backscatter fraction of this field's scattering, in "
-                    "[0.0001, 0.15]")
-
+    __annotations__.update(_unit_coefficients("per unit of this field's density",
+                                              "this field's scattering", 0.0))
 
 class PhoticObjectProperties(bpy.types.PropertyGroup):
     """Photic role and parameters of an object."""
@@ -337,28 +341,7 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
                 '"a_ref": 0.1}]}',
         description="IOPs per unit density as a model description in JSON, e.g. sediment "
                     "particles and CDOM")
-    unit_absorption: FloatProperty(
-        name="Unit Absorption", default=0.1, min=0.0, soft_max=10.0, precision=4,
-        description="Absorption per unit density (m^-1) in every band unless given per band")
-    unit_absorption_bands: StringProperty(
-        name="Unit Absorption per Band",
-        description="Absorption per unit density (m^-1), one per band separated by commas")
-    unit_scattering: FloatProperty(
-        name="Unit Scattering", default=1.0, min=0.0, soft_max=100.0, precision=4,
-        description="Scattering per unit density (m^-1) in every band unless given per band")
-    unit_scattering_bands: StringProperty(
-        name="Unit Scattering per Band",
-        description="Scattering per unit density (m^-1), one per band separated by commas")
-    unit_phase_function: EnumProperty(name="Unit Phase Function", items=PHASE_FUNCTIONS,
-                                      default="fournier_forand",
-                                      description="Phase function of the added scattering")
-    unit_hg_g: FloatProperty(name="Unit Asymmetry g", default=0.9, min=-0.99, max=0.99,
-                             precision=3, description="Henyey-Greenstein g of the added "
-                                                      "scattering, in [-0.99, 0.99]")
-    unit_ff_backscatter: FloatProperty(
-        name="Unit Backscatter Fraction", default=0.02, min=0.0001, max=0.15, precision=4,
-        description="Fournier-Forand backscatter fraction of the added scattering, in "
-                    "[0.0001, 0.15]")
+    __annotations__.update(_unit_coefficients("per unit density", "the added scattering", 1.0))
     grid_fields: CollectionProperty(
         type=PhoticGridField, name="Further Density Fields",
         description="Up to 3 more density fields on the grid's voxels, each with unit IOPs of "

@@ -123,21 +123,7 @@ class PHOTIC_PT_object(PhoticPanel, bpy.types.Panel):
         p = context.object.photic
         layout.prop(p, "role")
         if p.role in WATER_ROLES:
-            layout.prop(p, "iop_source")
-            if p.iop_source == "MODEL":
-                layout.prop(p, "iop_model")
-            else:
-                col = layout.column(align=True)
-                col.prop(p, "absorption")
-                col.prop(p, "absorption_bands")
-                col = layout.column(align=True)
-                col.prop(p, "scattering")
-                col.prop(p, "scattering_bands")
-                layout.prop(p, "phase_function")
-                if p.phase_function == "henyey_greenstein":
-                    layout.prop(p, "hg_g")
-                elif p.phase_function == "fournier_forand":
-                    layout.prop(p, "ff_backscatter")
+            _draw_iops(layout, p, "iop_source", "iop_model", "")
             layout.prop(p, "ior")
         if p.role == "WATER_SURFACE":
             layout.prop(p, "surface_shape")
@@ -238,24 +224,32 @@ class PHOTIC_PT_iop_variation(PhoticPanel, bpy.types.Panel):
             _draw_further_fields(layout, p)
 
 
+def _draw_iops(layout, q, source: str, model: str, prefix: str) -> None:
+    """IOPs as chosen by the property ``source``: the model description ``model``, or the
+    coefficients and phase function named ``prefix`` + absorption, scattering, ... (the
+    water's own IOPs: no prefix; a grid field's unit IOPs: "unit_")."""
+    layout.prop(q, source)
+    if getattr(q, source) == "MODEL":
+        layout.prop(q, model)
+        return
+    col = layout.column(align=True)
+    col.prop(q, prefix + "absorption")
+    col.prop(q, prefix + "absorption_bands")
+    col = layout.column(align=True)
+    col.prop(q, prefix + "scattering")
+    col.prop(q, prefix + "scattering_bands")
+    layout.prop(q, prefix + "phase_function")
+    phase = getattr(q, prefix + "phase_function")
+    if phase == "henyey_greenstein":
+        layout.prop(q, prefix + "hg_g")
+    elif phase == "fournier_forand":
+        layout.prop(q, prefix + "ff_backscatter")
+
+
 def _draw_unit_iops(layout, q) -> None:
     """The unit IOPs of a grid's first field (``q``: the object's Photic properties) or of a
     further field (``q``: the field): the same property names on both."""
-    layout.prop(q, "unit_source")
-    if q.unit_source == "MODEL":
-        layout.prop(q, "unit_model")
-        return
-    col = layout.column(align=True)
-    col.prop(q, "unit_absorption")
-    col.prop(q, "unit_absorption_bands")
-    col = layout.column(align=True)
-    col.prop(q, "unit_scattering")
-    col.prop(q, "unit_scattering_bands")
-    layout.prop(q, "unit_phase_function")
-    if q.unit_phase_function == "henyey_greenstein":
-        layout.prop(q, "unit_hg_g")
-    elif q.unit_phase_function == "fournier_forand":
-        layout.prop(q, "unit_ff_backscatter")
+    _draw_iops(layout, q, "unit_source", "unit_model", "unit_")
 
 
 def _draw_further_fields(layout, p) -> None:
