@@ -120,6 +120,7 @@ class PhoticGridField(bpy.types.PropertyGroup):
     __annotations__.update(_unit_coefficients("per unit of this field's density",
                                               "this field's scattering", 0.0))
 
+
 class PhoticObjectProperties(bpy.types.PropertyGroup):
     """Photic role and parameters of an object."""
 
