@@ -89,15 +89,20 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
         if (xs < cone_x) continue;  // inside the cone the light stays in the beam
         double pv[16];
         for (size_t ci = 0; ci < nc; ++ci) pv[ci] = phases[w.components[ci].phase].eval(xs);
-        for (int kb = 0; kb < nbands; ++kb) {
-            double bp = 0.0;
-            for (size_t ci = 0; ci < nc; ++ci) bp += L.comp_b[ci].v[kb] * pv[ci];
-            if (in_field)
-                for (int f = 0; f < w.grid_fields(); ++f)
-                    if (rx[f] > 0.0)
-                        for (size_t ci = 0; ci < nc; ++ci) bp += rx[f] * w.grid_units[f].comp_b[ci].v[kb] * pv[ci];
-            out->v[kb] += att[kb] * bp * beams[j].e.v[kb] / pdf;
+        // b p per band: the base's components, then each field's (bands innermost: vectorised).
+        double bp[kMaxBands] = {};
+        for (size_t ci = 0; ci < nc; ++ci) {
+            const double* __restrict u = L.comp_b[ci].v.data();
+            for (int kb = 0; kb < nbands; ++kb) bp[kb] += u[kb] * pv[ci];
         }
+        if (in_field)
+            for (int f = 0; f < w.grid_fields(); ++f)
+                if (rx[f] > 0.0)
+                    for (size_t ci = 0; ci < nc; ++ci) {
+                        const double* __restrict u = w.grid_units[f].comp_b[ci].v.data();
+                        for (int kb = 0; kb < nbands; ++kb) bp[kb] += rx[f] * u[kb] * pv[ci];
+                    }
+        for (int kb = 0; kb < nbands; ++kb) out->v[kb] += att[kb] * bp[kb] * beams[j].e.v[kb] / pdf;
     }
 }
 
@@ -154,7 +159,8 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
     // themselves); Russian roulette uses a bound meanwhile.
     double pending = 0.0;
     Spectrum tau_a;
-    thread_local WaterLayer grid_local;  // a grid's coefficients at the current collision (reused)
+    thread_local WaterLayer grid_local_tls;  // a grid's coefficients at the current collision (reused)
+    WaterLayer& grid_local = grid_local_tls;  // (the thread-local address looked up once per path)
     auto absorbed = [&](const Water& w, int k) {  // the factor not yet carried by beta
         return w.varying() ? std::exp(-tau_a.v[k]) : std::exp(-w.layers[0].a.v[k] * pending);
     };

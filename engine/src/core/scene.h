@@ -92,6 +92,19 @@ struct Water {
         for (int f = 0; f < grid_fields(); ++f) base += r[f] * (grid_units[f].*what).v[k];
         return base;
     }
+    // The same for bands 0..nb at once, in place: out[k] += sum_f r[f] unit_f[k], the fields in
+    // order (the same sums as grid_add, bit for bit). Bands innermost: a loop the compiler
+    // vectorises, where one per band over the fields ran at a few flops per branch (these run
+    // at every collision and for every transmittance). Fields with r = 0 add nothing.
+    template <class Unit>
+    void grid_add_bands(const double* r, Unit unit, int nb, double* __restrict out) const {
+        for (int f = 0; f < grid_nf; ++f) {
+            const double rf = r[f];
+            if (rf == 0.0) continue;
+            const double* __restrict u = unit(grid_units[f]).v.data();
+            for (int k = 0; k < nb; ++k) out[k] += rf * u[k];
+        }
+    }
     // A grid's coefficients where its densities are r: the base plus the fields' units times
     // their densities (written into *scratch). Only what a collision's decision reads, b_path
     // (linear in r like every coefficient, so the base's and units' sums serve); a scattering
@@ -102,40 +115,44 @@ struct Water {
         bool zero = true;
         for (int f = 0; f < grid_fields(); ++f) zero = zero && r[f] == 0.0;
         if (zero) return B;
-        for (int k = 0; k < nb; ++k) scratch->b_path.v[k] = grid_add(B.b_path.v[k], r, &WaterLayer::b_path, k);
+        double* out = scratch->b_path.v.data();
+        std::copy_n(B.b_path.v.data(), nb, out);
+        grid_add_bands(r, [](const WaterLayer& U) -> const Spectrum& { return U.b_path; }, nb, out);
         return *scratch;
     }
     void local_components(const double* r, double z, WaterLayer* scratch, int nb) const {
         const WaterLayer& B = layer_at(z);
         const size_t nc = B.comp_b_path.size();
         scratch->comp_b_path.resize(nc);
-        for (size_t c = 0; c < nc; ++c)
-            for (int k = 0; k < nb; ++k) {
-                double v = B.comp_b_path[c].v[k];
-                for (int f = 0; f < grid_fields(); ++f) v += r[f] * grid_units[f].comp_b_path[c].v[k];
-                scratch->comp_b_path[c].v[k] = v;
-            }
+        for (size_t c = 0; c < nc; ++c) {
+            double* out = scratch->comp_b_path[c].v.data();
+            std::copy_n(B.comp_b_path[c].v.data(), nb, out);
+            grid_add_bands(r, [c](const WaterLayer& U) -> const Spectrum& { return U.comp_b_path[c]; }, nb, out);
+        }
     }
     // Grid, a segment of length len over which the densities integrate to r: its absorption
     // optical depth added to *tau, and its attenuation exp(-c_path optical depth) into
     // t[0..nb) (no spectrum to clear: these run once or twice per path segment), per band.
     // The segment runs from height z0 to z1 (the base's layers).
     void grid_absorption(double z0, double z1, double len, const double* r, int nb, Spectrum* tau) const {
-        if (layers.size() > 1) {
-            add_optical_depth(&WaterLayer::a, z0, z1, len, nb, tau);
-            for (int k = 0; k < nb; ++k) tau->v[k] += grid_add(0.0, r, &WaterLayer::a, k);
-            return;
-        }
-        for (int k = 0; k < nb; ++k) tau->v[k] += grid_add(layers[0].a.v[k] * len, r, &WaterLayer::a, k);
+        double g[kMaxBands];
+        const bool layered = layers.size() > 1;
+        for (int k = 0; k < nb; ++k) g[k] = layered ? 0.0 : layers[0].a.v[k] * len;
+        grid_add_bands(r, [](const WaterLayer& U) -> const Spectrum& { return U.a; }, nb, g);
+        if (layered) add_optical_depth(&WaterLayer::a, z0, z1, len, nb, tau);
+        for (int k = 0; k < nb; ++k) tau->v[k] += g[k];
     }
     void grid_transmittance(double z0, double z1, double len, const double* r, int nb, double* t) const {
-        if (layers.size() > 1) {
+        double g[kMaxBands];
+        const bool layered = layers.size() > 1;
+        for (int k = 0; k < nb; ++k) g[k] = layered ? 0.0 : layers[0].c_path.v[k] * len;
+        grid_add_bands(r, [](const WaterLayer& U) -> const Spectrum& { return U.c_path; }, nb, g);
+        if (layered) {
             Spectrum tau;
             add_optical_depth(&WaterLayer::c_path, z0, z1, len, nb, &tau);
-            for (int k = 0; k < nb; ++k) t[k] = std::exp(-(tau.v[k] + grid_add(0.0, r, &WaterLayer::c_path, k)));
-            return;
+            for (int k = 0; k < nb; ++k) g[k] += tau.v[k];
         }
-        for (int k = 0; k < nb; ++k) t[k] = std::exp(-grid_add(layers[0].c_path.v[k] * len, r, &WaterLayer::c_path, k));
+        for (int k = 0; k < nb; ++k) t[k] = std::exp(-g[k]);
     }
     const WaterLayer& layer_at(double z) const { return layers[layer_index(z)]; }
     int layer_index(double z) const {
