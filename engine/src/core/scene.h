@@ -93,9 +93,9 @@ struct Water {
         return base;
     }
     // The same for bands 0..nb at once, in place: out[k] += sum_f r[f] unit_f[k], the fields in
-    // order (the same sums as grid_add, bit for bit). Bands innermost: a loop the compiler
-    // vectorises, where one per band over the fields ran at a few flops per branch (these run
-    // at every collision and for every transmittance). Fields with r = 0 add nothing.
+    // order (the same sums as grid_add, bit for bit). The bands innermost, in a loop the
+    // compiler vectorises: a loop over the fields per band did a few flops per branch, at
+    // every collision and for every transmittance. Fields with r = 0 add nothing.
     template <class Unit>
     void grid_add_bands(const double* r, Unit unit, int nb, double* __restrict out) const {
         for (int f = 0; f < grid_nf; ++f) {
