@@ -68,12 +68,17 @@ void Scene::set_grid_coefficients(Water& w) const {
     }
     double cmean = 0.0;
     for (const WaterLayer& B : w.layers) {
+        double c_beam_lo[kMaxBands], c_path_hi[kMaxBands];  // at the least and most densities
+        std::copy_n(B.c_beam.v.data(), nbands, c_beam_lo);
+        std::copy_n(B.c_path.v.data(), nbands, c_path_hi);
+        w.grid_add_bands(rmin, &WaterLayer::c_beam, nbands, c_beam_lo);
+        w.grid_add_bands(rmax, &WaterLayer::c_path, nbands, c_path_hi);
         double layer_mean = 0.0;
         for (int k = 0; k < nbands; ++k) {
             w.grid_s0 = std::max(w.grid_s0, B.b_path.v[k]);
-            w.c_beam_min = std::min(w.c_beam_min, w.grid_add(B.c_beam.v[k], rmin, &WaterLayer::c_beam, k));
+            w.c_beam_min = std::min(w.c_beam_min, c_beam_lo[k]);
             w.a_min = std::min(w.a_min, B.a.v[k]);
-            layer_mean += w.grid_add(B.c_path.v[k], rmax, &WaterLayer::c_path, k) / nbands;
+            layer_mean += c_path_hi[k] / nbands;
         }
         cmean = std::max(cmean, layer_mean);
     }

@@ -86,16 +86,10 @@ struct Water {
         for (int f = 0; f < grid_fields(); ++f) m += grid_s1[f] * r[f];
         return m;
     }
-    // sum_f r[f] field f's unit coefficient (the member `what` of its WaterLayer) in band k,
-    // added to `base`.
-    double grid_add(double base, const double* r, Spectrum WaterLayer::*what, int k) const {
-        for (int f = 0; f < grid_fields(); ++f) base += r[f] * (grid_units[f].*what).v[k];
-        return base;
-    }
-    // The same for bands 0..nb at once, in place: out[k] += sum_f r[f] unit_f[k], the fields in
-    // order (the same sums as grid_add, bit for bit). The bands innermost, in a loop the
-    // compiler vectorises: a loop over the fields per band did a few flops per branch, at
-    // every collision and for every transmittance. Fields with r = 0 add nothing.
+    // sum_f r[f] unit_f[k] added to out[k] in bands 0..nb, the fields in order; unit(U) is
+    // the Spectrum of field unit U to scale. The bands innermost, in a loop the compiler
+    // vectorises (a loop over the fields per band did a few flops per branch, at every
+    // collision and for every transmittance). Fields with r = 0 add nothing.
     template <class Unit>
     void grid_add_bands(const double* r, Unit unit, int nb, double* __restrict out) const {
         for (int f = 0; f < grid_nf; ++f) {
@@ -104,6 +98,10 @@ struct Water {
             const double* __restrict u = unit(grid_units[f]).v.data();
             for (int k = 0; k < nb; ++k) out[k] += rf * u[k];
         }
+    }
+    // The same for the member `what` of each field's unit WaterLayer.
+    void grid_add_bands(const double* r, Spectrum WaterLayer::*what, int nb, double* out) const {
+        grid_add_bands(r, [what](const WaterLayer& U) -> const Spectrum& { return U.*what; }, nb, out);
     }
     // A grid's coefficients where its densities are r: the base plus the fields' units times
     // their densities (written into *scratch). Only what a collision's decision reads, b_path
@@ -117,7 +115,7 @@ struct Water {
         if (zero) return B;
         double* out = scratch->b_path.v.data();
         std::copy_n(B.b_path.v.data(), nb, out);
-        grid_add_bands(r, [](const WaterLayer& U) -> const Spectrum& { return U.b_path; }, nb, out);
+        grid_add_bands(r, &WaterLayer::b_path, nb, out);
         return *scratch;
     }
     void local_components(const double* r, double z, WaterLayer* scratch, int nb) const {
@@ -136,23 +134,26 @@ struct Water {
     // The segment runs from height z0 to z1 (the base's layers).
     void grid_absorption(double z0, double z1, double len, const double* r, int nb, Spectrum* tau) const {
         double g[kMaxBands];
-        const bool layered = layers.size() > 1;
-        for (int k = 0; k < nb; ++k) g[k] = layered ? 0.0 : layers[0].a.v[k] * len;
-        grid_add_bands(r, [](const WaterLayer& U) -> const Spectrum& { return U.a; }, nb, g);
-        if (layered) add_optical_depth(&WaterLayer::a, z0, z1, len, nb, tau);
+        grid_depth(&WaterLayer::a, len, r, nb, g);
+        if (layers.size() > 1) add_optical_depth(&WaterLayer::a, z0, z1, len, nb, tau);
         for (int k = 0; k < nb; ++k) tau->v[k] += g[k];
     }
     void grid_transmittance(double z0, double z1, double len, const double* r, int nb, double* t) const {
         double g[kMaxBands];
-        const bool layered = layers.size() > 1;
-        for (int k = 0; k < nb; ++k) g[k] = layered ? 0.0 : layers[0].c_path.v[k] * len;
-        grid_add_bands(r, [](const WaterLayer& U) -> const Spectrum& { return U.c_path; }, nb, g);
-        if (layered) {
+        grid_depth(&WaterLayer::c_path, len, r, nb, g);
+        if (layers.size() > 1) {
             Spectrum tau;
             add_optical_depth(&WaterLayer::c_path, z0, z1, len, nb, &tau);
             for (int k = 0; k < nb; ++k) g[k] += tau.v[k];
         }
         for (int k = 0; k < nb; ++k) t[k] = std::exp(-g[k]);
+    }
+    // The optical depth of coefficient `what` over such a segment in g[0..nb): the fields', plus
+    // the homogeneous base's (a layered base's is added by the callers, through its layers).
+    void grid_depth(Spectrum WaterLayer::*what, double len, const double* r, int nb, double* g) const {
+        const bool layered = layers.size() > 1;
+        for (int k = 0; k < nb; ++k) g[k] = layered ? 0.0 : (layers[0].*what).v[k] * len;
+        grid_add_bands(r, what, nb, g);
     }
     const WaterLayer& layer_at(double z) const { return layers[layer_index(z)]; }
     int layer_index(double z) const {
