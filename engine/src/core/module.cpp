@@ -408,6 +408,28 @@ PYBIND11_MODULE(_core, m) {
            "Regular tracking along o + d t in the grid (for tests): (reached, position, densities "
            "there, int rho_f up to it, depth left) for the optical depth xi of "
            "s0 + sum_f s1[f] rho_f.")
+        .def("grid_walk", [](const Scene& s, int water, std::array<double, 3> o, std::array<double, 3> d,
+                             double s0, std::vector<double> s1, std::vector<std::pair<double, double>> steps) {
+            const Water& w = s.waters.at(water);
+            if (!w.grid) throw std::invalid_argument("this water has no grid");
+            const int nf = w.grid->nfields;
+            if (int(s1.size()) != nf) throw std::invalid_argument("s1 needs one coefficient per density field");
+            VoxelGrid::Cursor c(*w.grid, to_vec(o), normalize(to_vec(d)));
+            py::list out;
+            for (auto [xi, t] : steps) {
+                double rho[VoxelGrid::kMaxFields] = {};
+                bool hit = false;
+                if (xi < 0.0) c.value(t);
+                else hit = c.march(s0, s1.data(), &xi, t, rho);
+                out.append(py::make_tuple(hit, c.position(), std::vector<double>(rho, rho + nf),
+                                          std::vector<double>(c.integral(), c.integral() + nf), xi));
+            }
+            return py::make_tuple(c.by_columns(), out);
+        }, py::arg("water"), py::arg("o"), py::arg("d"), py::arg("s0"), py::arg("s1"), py::arg("steps"),
+           "One walk along o + d t in the grid taking steps in turn, as the integrators do (for "
+           "tests): (xi, t) with xi < 0 reads the integrals at t (value), else tracks as "
+           "grid_march does; (walked by columns, [(reached, position, densities, integrals, "
+           "depth left) per step]).")
         .def("camera_medium", [](const Scene& s, int i) { return s.cameras.at(i).medium; })
         .def("radiometer_medium", [](const Scene& s, int i) { return s.radiometers.at(i).medium; })
         .def("radiometer_bins", [](const Scene& s, int i) { return s.radiometers.at(i).bins(); })
