@@ -834,8 +834,17 @@ void VoxelGrid::Cursor::walk_columns(double tv, double s0, const double* s1, dou
                 const int dir = dzeta > 0.0 ? 1 : -1;
                 const double first = dir > 0 ? std::floor(za) + 1.0 : std::ceil(za) - 1.0;
                 const int count = std::max(0, dir > 0 ? int(std::ceil(zb) - first) : int(first - std::floor(zb)));
+                // Galloping from za, then bisection: the collision lies near the column's
+                // entry more often than not (its distance is exponential), where the faces'
+                // sums share the cache lines already read.
                 int lo_m = 0, hi_m = count;  // the first face whose depth reaches xi (count: none)
                 double q[F];
+                for (int step = 1; lo_m < hi_m; step *= 2) {
+                    const int m = lo_m + step - 1;
+                    if (m >= hi_m) break;
+                    if (depth(first + m * dir, q) >= xi) { hi_m = m; break; }
+                    lo_m = m + 1;
+                }
                 while (lo_m < hi_m) {
                     const int mid = (lo_m + hi_m) / 2;
                     if (depth(first + mid * dir, q) >= xi) hi_m = mid; else lo_m = mid + 1;
@@ -845,16 +854,13 @@ void VoxelGrid::Cursor::walk_columns(double tv, double s0, const double* s1, dou
                 double qs[F];
                 const double ds = lo_m == 0 ? 0.0 : depth(zs, qs);
                 if (lo_m == 0) std::copy_n(qa, F, qs);
-                // The voxel's densities as the bricks hold them (those of a collision).
+                // The voxel's densities: its sums' difference (the lines just read; the
+                // voxel's value to rounding, and 0 exactly where it is 0).
                 double rho[F] = {};
-                const int kv = g.kz0 + int(std::floor(0.5 * (zs + ze)));
-                if (kv >= g.kz0 && kv < g.kz0 + g.nzc) {
-                    const int32_t bs = g.brick_slot[(size_t(i >> kShift) * g.nb[1] + (j >> kShift)) * g.nb[2] + (kv >> kShift)];
-                    if (bs >= 0) {
-                        constexpr int M = B - 1;
-                        const float* v = &g.bricks[size_t(bs) * (F * kB3) + (((i & M) * B + (j & M)) * B + (kv & M))];
-                        for (int f = 0; f < F; ++f) rho[f] = v[f * kB3];
-                    }
+                const int kv = int(std::floor(0.5 * (zs + ze)));
+                if (kv >= 0 && kv < g.nzc) {
+                    const double* a = P + size_t(kv) * F;
+                    for (int f = 0; f < F; ++f) rho[f] = a[F + f] - a[f];
                 }
                 double sig = s0;
                 for (int f = 0; f < F; ++f) sig += s1[f] * rho[f];
