@@ -789,8 +789,9 @@ void VoxelGrid::Cursor::walk_columns(double tv, double s0, const double* s1, dou
     // integral over the column's part [t, tb] is (Q_f(zeta(tb)) - Q_f(zeta(t))) / dzeta, with
     // zeta the height in voxels and Q_f the column's prefix sums interpolated (exact for
     // piecewise-constant voxels, however many the part crosses). In tracking, a column whose
-    // optical depth reaches xi is searched by bisection over its voxel faces for the voxel of
-    // the collision, which is then placed exactly with that voxel's densities.
+    // optical depth reaches xi is searched over its voxel faces (galloping from the entry,
+    // then bisection) for the voxel of the collision, which is then placed exactly with that
+    // voxel's densities.
     const VoxelGrid& g = *g_;
     const size_t stride = size_t(g.nzc + 1) * F;
     const double zeta0 = (o_[2] - g.lo[2]) * g.icell[2] - g.kz0, dzeta = d_[2] * g.icell[2];
