@@ -39,10 +39,6 @@ struct VoxelGrid {
     double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
     double cell[3] = {1, 1, 1}, icell[3] = {1, 1, 1};  // voxel size (m) and 1 / size
     int n[3] = {1, 1, 1}, nb[3] = {1, 1, 1};
-    // Non-empty bricks only (a brick is stored where any field is > 0), nfields blocks of B^3
-    // densities each, field after field (local (i, j, k) at (i * B + j) * B + k): a sparse
-    // plume takes little memory, and a ray's voxels in one brick share cache lines.
-    // (A dense 256^3 field: 64 MB.)
     // An array of T aligned for the cache, not zeroed (the builds write every element, on
     // their threads, which then also share first touching the pages).
     template <class T>
@@ -77,7 +73,10 @@ struct VoxelGrid {
         const T& operator[](size_t i) const { return p[i]; }
         size_t size() const { return n; }
     };
-    Buffer<float> bricks;
+    // Non-empty bricks only (a brick is stored where any field is > 0), nfields blocks of B^3
+    // densities each, field after field (local (i, j, k) at (i * B + j) * B + k): a sparse
+    // plume takes little memory, and a ray's voxels in one brick share cache lines.
+    Buffer<float> bricks;  // (a dense 256^3 field: 64 MB)
     // Per brick its block in `bricks` (-1: empty).
     std::vector<int32_t> brick_slot;
     // Per brick 0 if non-empty, else r in 1..kClearCap such that every brick within r - 1
