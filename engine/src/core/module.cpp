@@ -26,6 +26,28 @@ Spectrum to_spectrum(const DArray& a, int nb, const char* what) {
 
 Vec3 to_vec(const std::array<double, 3>& a) { return Vec3(a[0], a[1], a[2]); }
 
+// The grid of water `water` (the test bindings' walks and lookups), or a ValueError.
+const VoxelGrid& grid_of(const Scene& s, int water) {
+    const Water& w = s.waters.at(water);
+    if (!w.grid) throw std::invalid_argument("this water has no grid");
+    return *w.grid;
+}
+
+// A walk along o + d (normalised) through the grid of `water`, for the tracking bindings,
+// which take one coefficient per density field in s1.
+VoxelGrid::Cursor grid_cursor(const Scene& s, int water, const std::array<double, 3>& o,
+                              const std::array<double, 3>& d, const std::vector<double>& s1) {
+    const VoxelGrid& g = grid_of(s, water);
+    if (int(s1.size()) != g.nfields) throw std::invalid_argument("s1 needs one coefficient per density field");
+    return VoxelGrid::Cursor(g, to_vec(o), normalize(to_vec(d)));
+}
+
+// A tracking binding's answer: (reached, position, densities there, int rho_f up to it, depth left).
+py::tuple march_result(const VoxelGrid::Cursor& c, bool hit, const double* rho, double xi, int nf) {
+    return py::make_tuple(hit, c.position(), std::vector<double>(rho, rho + nf),
+                          std::vector<double>(c.integral(), c.integral() + nf), xi);
+}
+
 // A pass's [sum, sum of squares] of the given shape, zeroed: the caller's arrays `out` when
 // given (reused from pass to pass: new large arrays cost a page fault per 4 kB page, on
 // some allocator states every pass), else new ones.
@@ -374,35 +396,28 @@ PYBIND11_MODULE(_core, m) {
         .def("commit", [](Scene& s) { py::gil_scoped_release nogil; s.commit(); })
         .def("medium_at", [](const Scene& s, std::array<double, 3> p) { return s.medium_at(to_vec(p)); })
         .def("grid_integral", [](const Scene& s, int water, std::array<double, 3> p0, std::array<double, 3> p1) {
-            const Water& w = s.waters.at(water);
-            if (!w.grid) throw std::invalid_argument("this water has no grid");
+            const VoxelGrid& g = grid_of(s, water);
             Vec3 a = to_vec(p0), b = to_vec(p1);
             double r[VoxelGrid::kMaxFields];
-            w.grid->integral(a, b, length(b - a), r);
-            return std::vector<double>(r, r + w.grid->nfields);
+            g.integral(a, b, length(b - a), r);
+            return std::vector<double>(r, r + g.nfields);
         }, py::arg("water"), py::arg("p0"), py::arg("p1"),
            "The integral of each of the grid's density fields along the segment p0 -> p1 (m): "
            "what the integrators' optical depths use (for tests).")
         .def("grid_density", [](const Scene& s, int water, std::array<double, 3> p) {
-            const Water& w = s.waters.at(water);
-            if (!w.grid) throw std::invalid_argument("this water has no grid");
+            const VoxelGrid& g = grid_of(s, water);
             double r[VoxelGrid::kMaxFields];
-            w.grid->at(to_vec(p), r);
-            return std::vector<double>(r, r + w.grid->nfields);
+            g.at(to_vec(p), r);
+            return std::vector<double>(r, r + g.nfields);
         }, py::arg("water"), py::arg("p"),
            "The grid's densities at p, one per field (0 outside the box): what the beam terms' "
            "scattering uses (for tests).")
         .def("grid_march", [](const Scene& s, int water, std::array<double, 3> o, std::array<double, 3> d,
                               double s0, std::vector<double> s1, double xi, double t_stop) {
-            const Water& w = s.waters.at(water);
-            if (!w.grid) throw std::invalid_argument("this water has no grid");
-            const int nf = w.grid->nfields;
-            if (int(s1.size()) != nf) throw std::invalid_argument("s1 needs one coefficient per density field");
-            VoxelGrid::Cursor c(*w.grid, to_vec(o), normalize(to_vec(d)));
+            VoxelGrid::Cursor c = grid_cursor(s, water, o, d, s1);
             double rho[VoxelGrid::kMaxFields];
             const bool hit = c.march(s0, s1.data(), &xi, t_stop, rho);
-            return py::make_tuple(hit, c.position(), std::vector<double>(rho, rho + nf),
-                                  std::vector<double>(c.integral(), c.integral() + nf), xi);
+            return march_result(c, hit, rho, xi, int(s1.size()));
         }, py::arg("water"), py::arg("o"), py::arg("d"), py::arg("s0"), py::arg("s1"), py::arg("xi"),
            py::arg("t_stop"),
            "Regular tracking along o + d t in the grid (for tests): (reached, position, densities "
@@ -410,19 +425,14 @@ PYBIND11_MODULE(_core, m) {
            "s0 + sum_f s1[f] rho_f.")
         .def("grid_walk", [](const Scene& s, int water, std::array<double, 3> o, std::array<double, 3> d,
                              double s0, std::vector<double> s1, std::vector<std::pair<double, double>> steps) {
-            const Water& w = s.waters.at(water);
-            if (!w.grid) throw std::invalid_argument("this water has no grid");
-            const int nf = w.grid->nfields;
-            if (int(s1.size()) != nf) throw std::invalid_argument("s1 needs one coefficient per density field");
-            VoxelGrid::Cursor c(*w.grid, to_vec(o), normalize(to_vec(d)));
+            VoxelGrid::Cursor c = grid_cursor(s, water, o, d, s1);
             py::list out;
             for (auto [xi, t] : steps) {
                 double rho[VoxelGrid::kMaxFields] = {};
                 bool hit = false;
                 if (xi < 0.0) c.value(t);
                 else hit = c.march(s0, s1.data(), &xi, t, rho);
-                out.append(py::make_tuple(hit, c.position(), std::vector<double>(rho, rho + nf),
-                                          std::vector<double>(c.integral(), c.integral() + nf), xi));
+                out.append(march_result(c, hit, rho, xi, int(s1.size())));
             }
             return py::make_tuple(c.by_columns(), out);
         }, py::arg("water"), py::arg("o"), py::arg("d"), py::arg("s0"), py::arg("s1"), py::arg("steps"),
