@@ -539,6 +539,40 @@ struct VoxelGrid {
             if (t_stop > t_) walk<true>(t_stop, s0, s1, xi, rho);
             return hit_;
         }
+        // Asks the memory for the column sums a walk by columns reads first (the entry and
+        // exit heights of its first n columns), to be called before independent work such as
+        // the ray's intersection: a walk's first lookups are otherwise cache misses waited for
+        // one after another, once per path segment.
+        void prefetch(int n) {
+            if (!cols_ || !box_) return;
+            if (!started_) start();
+            const VoxelGrid& g = *g_;
+            const size_t stride = size_t(g.nzc + 1) * g.nfields;
+            const double zeta0 = (o_[2] - g.lo[2]) * g.icell[2] - g.kz0, dzeta = d_[2] * g.icell[2];
+            int i = i_, j = j_;
+            double tx = tx_, ty = ty_, t = std::max(t_, t0_);
+            for (int c = 0; c < n; ++c) {
+                const double tb = std::min(std::min(tx, ty), t1_);
+                const int32_t slot = g.col_slot[size_t(i) * g.n[1] + j];
+                if (slot >= 0)
+                    for (const double zeta : {zeta0 + dzeta * t, zeta0 + dzeta * tb}) {
+                        const double zc = zeta < 0.0 ? 0.0 : zeta > g.nzc ? g.nzc : zeta;
+                        const int k = std::min(g.nzc - 1, int(zc));
+                        __builtin_prefetch(&g.col_prefix[size_t(slot) * stride + size_t(k) * g.nfields]);
+                    }
+                if (tb >= t1_) break;
+                t = tb;
+                if (tx <= ty) {
+                    i += si_;
+                    tx += dx_;
+                    if (unsigned(i) >= unsigned(g.n[0])) break;
+                } else {
+                    j += sj_;
+                    ty += dy_;
+                    if (unsigned(j) >= unsigned(g.n[1])) break;
+                }
+            }
+        }
         double position() const { return t_; }
         bool by_columns() const { return cols_; }
         const double* integral() const { return sum_; }
@@ -823,37 +857,59 @@ void VoxelGrid::Cursor::walk_columns(double tv, double s0, const double* s1, dou
                 if (kTrack) gain += s1[f] * in[f];
             }
             if (kTrack && gain >= xi && gain > 0.0) {
-                // The depth from t to the face at zeta; the faces strictly between za and zb
-                // in the ray's order are f_m = first + m dir, m < count.
-                auto depth = [&](double zeta, double* q) {
-                    prefix_at(P, zeta, q);
-                    double dd = s0 * (zeta - za) * idzeta;
-                    for (int f = 0; f < F; ++f) dd += s1[f] * (q[f] - qa[f]) * idzeta;
-                    return dd;
-                };
+                // The faces strictly between za and zb in the ray's order are f_m = first +
+                // m dir, m < count, at distances off + m from za (in voxels along z). The
+                // collision lies between the last face whose depth stays below xi and the next
+                // one: a bracket [L, H] of faces (L = -1: za at depth 0; H = count: zb at
+                // depth gain) narrowed by interpolation search, each guess read with its
+                // neighbour (the same cache line): over voxels of similar densities the depth
+                // grows nearly linearly, and the first guess mostly lands on the voxel. Each
+                // guess is a dependent memory access, so few guesses matter more than few
+                // operations; after kGuesses, bisection bounds the worst case.
                 const int dir = dzeta > 0.0 ? 1 : -1;
                 const double first = dir > 0 ? std::floor(za) + 1.0 : std::ceil(za) - 1.0;
                 const int count = std::max(0, dir > 0 ? int(std::ceil(zb) - first) : int(first - std::floor(zb)));
-                // Galloping from za, then bisection: the collision lies near the column's
-                // entry more often than not (its distance is exponential), where the faces'
-                // sums share the cache lines already read.
-                int lo_m = 0, hi_m = count;  // the first face whose depth reaches xi (count: none)
-                double q[F];
-                for (int step = 1; lo_m < hi_m; step *= 2) {
-                    const int m = lo_m + step - 1;
-                    if (m >= hi_m) break;
-                    if (depth(first + m * dir, q) >= xi) { hi_m = m; break; }
-                    lo_m = m + 1;
+                const double off = std::fabs(first - za);
+                // The depth from za to face m, with the sums there into q.
+                auto face_depth = [&](int m, double* qm) {
+                    const int lev = std::min(g.nzc, std::max(0, int(first) + m * dir));
+                    const double* a = P + size_t(lev) * F;
+                    double dd = s0 * (off + m) * dir;  // (f_m - za)
+                    for (int f = 0; f < F; ++f) {
+                        qm[f] = a[f];
+                        dd += s1[f] * (qm[f] - qa[f]);
+                    }
+                    return dd * idzeta;
+                };
+                int L = -1, H = count;
+                double dL = 0.0, dH = gain, qL[F], q[F];
+                std::copy_n(qa, F, qL);
+                auto take = [&](int m, double dm) {  // face m narrows the bracket; true if below xi
+                    if (dm >= xi) { H = m; dH = dm; return false; }
+                    L = m; dL = dm; std::copy_n(q, F, qL);
+                    return true;
+                };
+                constexpr int kGuesses = 3;
+                for (int guess = 0; H - L > 1; ++guess) {
+                    if (guess >= kGuesses) {
+                        const int m = (L + H) / 2;
+                        take(m, face_depth(m, q));
+                        continue;
+                    }
+                    const double xL = L < 0 ? 0.0 : off + L, xH = H >= count ? std::fabs(zb - za) : off + H;
+                    const double x = xL + (xi - dL) / (dH - dL) * (xH - xL);
+                    const int m = std::min(H - 1, std::max(L + 1, int(std::floor(x - off))));
+                    if (take(m, face_depth(m, q))) {
+                        if (m + 1 < H) take(m + 1, face_depth(m + 1, q));
+                    } else if (m - 1 > L) {
+                        take(m - 1, face_depth(m - 1, q));
+                    }
                 }
-                while (lo_m < hi_m) {
-                    const int mid = (lo_m + hi_m) / 2;
-                    if (depth(first + mid * dir, q) >= xi) hi_m = mid; else lo_m = mid + 1;
-                }
-                const double zs = lo_m == 0 ? za : first + (lo_m - 1) * dir;
-                const double ze = lo_m == count ? zb : first + lo_m * dir;
+                const double zs = L < 0 ? za : first + L * dir;
+                const double ze = H >= count ? zb : first + H * dir;
+                const double ds = dL;
                 double qs[F];
-                const double ds = lo_m == 0 ? 0.0 : depth(zs, qs);
-                if (lo_m == 0) std::copy_n(qa, F, qs);
+                std::copy_n(qL, F, qs);
                 // The voxel's densities: its sums' difference (the lines just read; the
                 // voxel's value to rounding, and 0 exactly where it is 0).
                 double rho[F] = {};
