@@ -55,6 +55,15 @@ void Scene::set_grid_coefficients(Water& w) const {
             U.c_path.v[k] = U.c_beam.v[k];
         }
     }
+    w.grid_scatter_fields = 0;
+    w.grid_comp_fields.assign(w.components.size(), 0u);
+    for (int f = 0; f < nf; ++f)
+        for (size_t ci = 0; ci < w.components.size(); ++ci)
+            for (int k = 0; k < nbands; ++k)
+                if (w.grid_units[f].comp_b[ci].v[k] > 0.0) {
+                    w.grid_comp_fields[ci] |= 1u << f;
+                    w.grid_scatter_fields |= 1u << f;
+                }
     // Over the base's layers (a depth profile under the grid) and bands.
     w.grid_s0 = 0.0;
     for (int f = 0; f < nf; ++f) {

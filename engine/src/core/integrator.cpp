@@ -99,6 +99,7 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
             for (int f = 0; f < w.grid_fields(); ++f)
                 if (rx[f] > 0.0)
                     for (size_t ci = 0; ci < nc; ++ci) {
+                        if (!(w.grid_comp_fields[ci] >> f & 1u)) continue;
                         const double* __restrict u = w.grid_units[f].comp_b[ci].v.data();
                         for (int kb = 0; kb < nbands; ++kb) bp[kb] += rx[f] * u[kb] * pv[ci];
                     }

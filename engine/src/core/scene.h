@@ -79,6 +79,11 @@ struct Water {
     // >= b_path in every band (s0, s1[f]: the base's and field f's unit b_path's largest over
     // the bands and layers).
     double grid_s0 = 0.0, grid_s1[VoxelGrid::kMaxFields] = {};
+    // Bit f set where field f's unit scatters at all (grid_scatter_fields), and per component
+    // where it scatters in that component (grid_comp_fields): the sums below skip the rest (a
+    // CDOM field scatters nothing; a particle field adds to its own component only).
+    unsigned grid_scatter_fields = 0;
+    std::vector<unsigned> grid_comp_fields;
     bool varying() const { return layers.size() > 1 || grid; }
     int grid_fields() const { return grid_nf; }
     double grid_majorant(const double* r) const {
@@ -91,17 +96,17 @@ struct Water {
     // vectorises (a loop over the fields per band did a few flops per branch, at every
     // collision and for every transmittance). Fields with r = 0 add nothing.
     template <class Unit>
-    void grid_add_bands(const double* r, Unit unit, int nb, double* __restrict out) const {
+    void grid_add_bands(const double* r, Unit unit, int nb, double* __restrict out, unsigned fields = ~0u) const {
         for (int f = 0; f < grid_nf; ++f) {
             const double rf = r[f];
-            if (rf == 0.0) continue;
+            if (rf == 0.0 || !(fields >> f & 1u)) continue;
             const double* __restrict u = unit(grid_units[f]).v.data();
             for (int k = 0; k < nb; ++k) out[k] += rf * u[k];
         }
     }
     // The same for the member `what` of each field's unit WaterLayer.
-    void grid_add_bands(const double* r, Spectrum WaterLayer::*what, int nb, double* out) const {
-        grid_add_bands(r, [what](const WaterLayer& U) -> const Spectrum& { return U.*what; }, nb, out);
+    void grid_add_bands(const double* r, Spectrum WaterLayer::*what, int nb, double* out, unsigned fields = ~0u) const {
+        grid_add_bands(r, [what](const WaterLayer& U) -> const Spectrum& { return U.*what; }, nb, out, fields);
     }
     // A grid's coefficients where its densities are r: the base plus the fields' units times
     // their densities (written into *scratch). Only what a collision's decision reads, b_path
@@ -115,7 +120,7 @@ struct Water {
         if (zero) return B;
         double* out = scratch->b_path.v.data();
         std::copy_n(B.b_path.v.data(), nb, out);
-        grid_add_bands(r, &WaterLayer::b_path, nb, out);
+        grid_add_bands(r, &WaterLayer::b_path, nb, out, grid_scatter_fields);
         return *scratch;
     }
     void local_components(const double* r, double z, WaterLayer* scratch, int nb) const {
@@ -125,7 +130,8 @@ struct Water {
         for (size_t c = 0; c < nc; ++c) {
             double* out = scratch->comp_b_path[c].v.data();
             std::copy_n(B.comp_b_path[c].v.data(), nb, out);
-            grid_add_bands(r, [c](const WaterLayer& U) -> const Spectrum& { return U.comp_b_path[c]; }, nb, out);
+            grid_add_bands(r, [c](const WaterLayer& U) -> const Spectrum& { return U.comp_b_path[c]; }, nb, out,
+                           grid_comp_fields[c]);
         }
     }
     // Grid, a segment of length len over which the densities integrate to r: its absorption
