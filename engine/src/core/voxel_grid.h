@@ -822,8 +822,8 @@ void VoxelGrid::Cursor::walk_columns(double tv, double s0, const double* s1, dou
     // integral over the column's part [t, tb] is (Q_f(zeta(tb)) - Q_f(zeta(t))) / dzeta, with
     // zeta the height in voxels and Q_f the column's prefix sums interpolated (exact for
     // piecewise-constant voxels, however many the part crosses). In tracking, a column whose
-    // optical depth reaches xi is searched over its voxel faces (galloping from the entry,
-    // then bisection) for the voxel of the collision, which is then placed exactly with that
+    // optical depth reaches xi is searched over its voxel faces (interpolation search, then
+    // bisection) for the voxel of the collision, which is then placed exactly with that
     // voxel's densities.
     const VoxelGrid& g = *g_;
     const size_t stride = size_t(g.nzc + 1) * F;
@@ -889,6 +889,17 @@ void VoxelGrid::Cursor::walk_columns(double tv, double s0, const double* s1, dou
                     L = m; dL = dm; std::copy_n(q, F, qL);
                     return true;
                 };
+                // The first guess from the density of the voxel the ray enters at za (its sums
+                // share qa's line): in dense water the collision lies a few voxels on, which a
+                // guess between the column's ends misses where the density falls with depth.
+                double x_first = -1.0;
+                const int k_in = dir > 0 ? int(std::floor(za)) : int(std::ceil(za)) - 1;
+                if (k_in >= 0 && k_in < g.nzc) {
+                    const double* a = P + size_t(k_in) * F;
+                    double sig = s0;
+                    for (int f = 0; f < F; ++f) sig += s1[f] * (a[F + f] - a[f]);
+                    if (sig > 0.0) x_first = xi / sig * std::fabs(dzeta);  // (voxels along z)
+                }
                 constexpr int kGuesses = 3;
                 for (int guess = 0; H - L > 1; ++guess) {
                     if (guess >= kGuesses) {
@@ -897,7 +908,7 @@ void VoxelGrid::Cursor::walk_columns(double tv, double s0, const double* s1, dou
                         continue;
                     }
                     const double xL = L < 0 ? 0.0 : off + L, xH = H >= count ? std::fabs(zb - za) : off + H;
-                    const double x = xL + (xi - dL) / (dH - dL) * (xH - xL);
+                    const double x = guess == 0 && x_first >= 0.0 ? x_first : xL + (xi - dL) / (dH - dL) * (xH - xL);
                     const int m = std::min(H - 1, std::max(L + 1, int(std::floor(x - off))));
                     if (take(m, face_depth(m, q))) {
                         if (m + 1 < H) take(m + 1, face_depth(m + 1, q));
