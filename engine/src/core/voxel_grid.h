@@ -863,9 +863,9 @@ void VoxelGrid::Cursor::walk_columns(double tv, double s0, const double* s1, dou
                 // one: a bracket [L, H] of faces (L = -1: za at depth 0; H = count: zb at
                 // depth gain) narrowed by interpolation search, each guess read with its
                 // neighbour (the same cache line): over voxels of similar densities the depth
-                // grows nearly linearly, and the first guess mostly lands on the voxel. Each
-                // guess is a dependent memory access, so few guesses matter more than few
-                // operations; after kGuesses, bisection bounds the worst case.
+                // grows nearly linearly, so guesses land on or next to the voxel. Each guess is
+                // a dependent memory access, so few guesses matter more than few operations;
+                // after kGuesses, bisection bounds the worst case.
                 const int dir = dzeta > 0.0 ? 1 : -1;
                 const double first = dir > 0 ? std::floor(za) + 1.0 : std::ceil(za) - 1.0;
                 const int count = std::max(0, dir > 0 ? int(std::ceil(zb) - first) : int(first - std::floor(zb)));
@@ -908,7 +908,8 @@ void VoxelGrid::Cursor::walk_columns(double tv, double s0, const double* s1, dou
                         continue;
                     }
                     const double xL = L < 0 ? 0.0 : off + L, xH = H >= count ? std::fabs(zb - za) : off + H;
-                    const double x = guess == 0 && x_first >= 0.0 ? x_first : xL + (xi - dL) / (dH - dL) * (xH - xL);
+                    const double x = guess == 0 && x_first >= 0.0 ? std::min(x_first, xH)  // (no overflow below)
+                                                                  : xL + (xi - dL) / (dH - dL) * (xH - xL);
                     const int m = std::min(H - 1, std::max(L + 1, int(std::floor(x - off))));
                     if (take(m, face_depth(m, q))) {
                         if (m + 1 < H) take(m + 1, face_depth(m + 1, q));
