@@ -257,10 +257,11 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 }
                 if (end) w.grid_absorption(o.z, o.z + d.z * t_end, t_end, r_end, nb, &tau_a);
             };
-            // Path tracing traces only to the first tentative collision: short rays are cheaper,
-            // and most flights in water end in the volume. Not in a grid: its walk would go on
-            // past the surface or the floor not knowing them, and back again (a third of the
-            // walked length in the plume example), where the intersection first bounds it.
+            // Path tracing casts the ray only up to the first tentative collision: short rays are
+            // cheaper, and most flights in water end in the volume. Not in a grid, whose walk,
+            // not knowing the surface or the floor, would go on past them and back (a third of
+            // the walked length in the plume example): there the whole ray is cast first and
+            // bounds the walk.
             const bool short_ray = !hybrid && w.majorant > 0.0 && !w.grid;
             t_hit = kInf;
             if (w.majorant > 0.0 && !w.grid) dt = flight();
