@@ -218,8 +218,9 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 // walk waits on them otherwise, once per segment: 4-8 % of the plume example).
                 gcursor->prefetch(3);
             }
-            auto flight = [&]() {
-                double xi = -std::log(1.0 - rng.uniform());
+            double t_clip = kInf;  // gridded, clipped: the ray was intersected up to here only
+            auto draw_depth = [&]() { return -std::log(1.0 - rng.uniform()); };
+            auto flight = [&](double xi) {
                 if (w.grid) {
                     for (;;) {  // on to the collision, reading the integral at t_beam on the way
                         if (t_beam >= 0.0 && !beam_read && t_beam <= gcursor->position()) {
@@ -227,8 +228,19 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                             beam_read = true;
                         }
                         const bool to_beam = t_beam >= 0.0 && !beam_read;
-                        if (gcursor->march(w.grid_s0, w.grid_s1, &xi, to_beam ? t_beam : t_hit, grho))
+                        if (gcursor->march(w.grid_s0, w.grid_s1, &xi, to_beam ? t_beam : clipped ? t_clip : t_hit, grho))
                             return gcursor->position() - t_cur;
+                        if (clipped && !to_beam) {
+                            // (Rounding only: the depth reaches xi by t_clip.) The rest of the ray,
+                            // then on to the collision.
+                            const double tp = gcursor->position();
+                            h = intersect(o + d * tp, d);
+                            c.segments++;
+                            clipped = false;
+                            if (h.valid) h.t += tp;
+                            t_hit = h.valid ? h.t : kInf;
+                            continue;
+                        }
                         if (!to_beam) return kInf;  // none before the segment's end
                     }
                 }
@@ -258,14 +270,22 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 if (end) w.grid_absorption(o.z, o.z + d.z * t_end, t_end, r_end, nb, &tau_a);
             };
             // Path tracing casts the ray only up to the first tentative collision: short rays are
-            // cheaper, and most flights in water end in the volume. Not in a grid, whose walk,
-            // not knowing the surface or the floor, would go on past them and back (a third of
-            // the walked length in the plume example): there the whole ray is cast first and
-            // bounds the walk.
-            const bool short_ray = !hybrid && w.majorant > 0.0 && !w.grid;
+            // cheaper, and most flights in water end in the volume. A grid's walk cannot find
+            // that collision before the ray is cast (it would go on past the surface or the
+            // floor and back: a third of the walked length in the plume example), but the
+            // tracked coefficient s0 + s1 rho is at least s0 everywhere (rho >= 0), so the
+            // collision lies within xi / s0: the ray is cast that far (a few percent of the
+            // plume example's render against casting it whole), and the walk stops at its hit.
+            const bool short_ray = !hybrid && w.majorant > 0.0 && (!w.grid || w.grid_s0 > 0.0);
             t_hit = kInf;
-            if (w.majorant > 0.0 && !w.grid) dt = flight();
-            if (short_ray) {
+            double xi0 = -1.0;  // a grid's first depth, drawn before the ray is cast
+            if (w.majorant > 0.0 && !w.grid) dt = flight(draw_depth());
+            if (short_ray && w.grid) {
+                xi0 = draw_depth();
+                t_clip = xi0 / w.grid_s0 * (1.0 + 1e-9) + 1e-9;  // (margin for the walk's rounding)
+                h = intersect(o, d, t_clip);
+                clipped = !h.valid;
+            } else if (short_ray) {
                 h = intersect(o, d, dt);
                 clipped = !h.valid;  // nothing before dt; what lies beyond is unknown
             } else {
@@ -283,7 +303,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     for (int kb = 0; kb < nb; ++kb) out.beam_volume.v[kb] += bv_weight * beta.v[kb] * absorbed(w, kb) * I.v[kb];
             }
             bv_weight = 1.0;
-            if (w.majorant > 0.0 && w.grid) dt = flight();  // after t_hit and t_beam are known
+            if (w.majorant > 0.0 && w.grid) dt = flight(xi0 >= 0.0 ? xi0 : draw_depth());  // after t_hit and t_beam are known
 
             while (t_cur + dt < t_hit) {
                 t_cur += dt;
@@ -316,7 +336,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     if (h.valid) h.t += t_cur;
                     t_hit = h.valid ? h.t : kInf;
                 }
-                dt = flight();
+                dt = flight(draw_depth());
             }
             if (scattered) {
                 settle(t_cur);
