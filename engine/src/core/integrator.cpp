@@ -219,6 +219,14 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 gcursor->prefetch(3);
             }
             double t_clip = kInf;  // gridded, clipped: the ray was intersected up to here only
+            // A clipped ray's rest, from t on (what lies beyond the bound was unknown).
+            auto intersect_rest = [&](double t) {
+                h = intersect(o + d * t, d);
+                c.segments++;
+                clipped = false;
+                if (h.valid) h.t += t;
+                t_hit = h.valid ? h.t : kInf;
+            };
             auto draw_depth = [&]() { return -std::log(1.0 - rng.uniform()); };
             auto flight = [&](double xi) {
                 if (w.grid) {
@@ -233,12 +241,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                         if (clipped && !to_beam) {
                             // (Rounding only: the depth reaches xi by t_clip.) The rest of the ray,
                             // then on to the collision.
-                            const double tp = gcursor->position();
-                            h = intersect(o + d * tp, d);
-                            c.segments++;
-                            clipped = false;
-                            if (h.valid) h.t += tp;
-                            t_hit = h.valid ? h.t : kInf;
+                            intersect_rest(gcursor->position());
                             continue;
                         }
                         if (!to_beam) return kInf;  // none before the segment's end
@@ -329,13 +332,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     break;
                 }
                 for (int k = 0; k < nb; ++k) beta.v[k] *= (1.0 - L->b_path.v[k] / maj) / (1.0 - p_real);
-                if (clipped) {  // a null collision: now find the surface beyond it
-                    h = intersect(o + d * t_cur, d);
-                    c.segments++;
-                    clipped = false;
-                    if (h.valid) h.t += t_cur;
-                    t_hit = h.valid ? h.t : kInf;
-                }
+                if (clipped) intersect_rest(t_cur);  // a null collision: now find the surface beyond it
                 dt = flight(draw_depth());
             }
             if (scattered) {
