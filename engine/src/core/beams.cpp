@@ -8,7 +8,6 @@
 // length l is Phi exp(-c_beam l) / A(l), A the cross-section, so focusing waves give caustics.
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <thread>
 #include "optics.h"
 #include "parallel.h"
@@ -242,42 +241,16 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         }
     }
 
-    // Source triangles: the ocean patch (the given vertex normals, or shared vertex normals
-    // with the seams averaged across the period) and the sun-facing faces of closed water
-    // meshes (face normals).
+    // Source triangles: the ocean patch (with its vertex normals) and the sun-facing faces of
+    // closed water meshes (face normals).
     std::vector<SourceTri> src;
     if (ocean_water >= 0 && !ocean_flat) {
         size_t nv = patch_vertices.size() / 3, nt = patch_triangles.size() / 3;
         auto V = [&](size_t i) { return Vec3(patch_vertices[3 * i], patch_vertices[3 * i + 1], patch_vertices[3 * i + 2]); };
+        // The patch's shading normals (given, or made smooth at commit): the same as paths meet.
         std::vector<Vec3> vn(nv);
-        if (patch_normals.size() == patch_vertices.size()) {  // given (exact) normals
-            for (size_t i = 0; i < nv; ++i)
-                vn[i] = normalize(Vec3(patch_normals[3 * i], patch_normals[3 * i + 1], patch_normals[3 * i + 2]));
-        } else {
-            // Vertices that are the same point of the periodic surface share one normal.
-            std::map<std::pair<long, long>, std::vector<size_t>> same;
-            double qx = patch_lx * 1e-7, qy = patch_ly * 1e-7;
-            for (size_t i = 0; i < nv; ++i) {
-                Vec3 p = V(i);
-                double fx = std::fmod(p.x - patch_x0, patch_lx); if (fx < 0) fx += patch_lx;
-                double fy = std::fmod(p.y - patch_y0, patch_ly); if (fy < 0) fy += patch_ly;
-                long kx = std::lround(fx / qx), ky = std::lround(fy / qy);
-                if (kx >= std::lround(patch_lx / qx)) kx = 0;
-                if (ky >= std::lround(patch_ly / qy)) ky = 0;
-                same[{kx, ky}].push_back(i);
-            }
-            for (size_t t = 0; t < nt; ++t) {
-                const uint32_t* tri = &patch_triangles[3 * t];
-                Vec3 c = cross(V(tri[1]) - V(tri[0]), V(tri[2]) - V(tri[0]));  // area weighted
-                if (c.z < 0) c = -c;
-                for (int j = 0; j < 3; ++j) vn[tri[j]] += c;
-            }
-            for (auto& [key, ids] : same) {
-                Vec3 sum;
-                for (size_t i : ids) sum += vn[i];
-                for (size_t i : ids) vn[i] = normalize(sum);
-            }
-        }
+        for (size_t i = 0; i < nv; ++i)
+            vn[i] = normalize(Vec3(patch_normals[3 * i], patch_normals[3 * i + 1], patch_normals[3 * i + 2]));
         for (size_t t = 0; t < nt; ++t) {
             const uint32_t* tri = &patch_triangles[3 * t];
             SourceTri st;
@@ -341,7 +314,11 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         object_boxes.push_back({lo, hi});
     }
 
-    auto trace_vertex = [&](const Vec3& p, const Vec3& n, int wi, bool rough) {
+    // A vertex ray of the periodic patch meets only what repeats with it (the surface, the
+    // bottom): its prism serves every period, and the meshes (which stand in one period only)
+    // are met by each query's shadow rays in the period it asks about. A vertex ray of a water
+    // mesh meets everything.
+    auto trace_vertex = [&](const Vec3& p, const Vec3& n, int wi, bool rough, bool periodic) {
         VertexRay r;
         r.p = p;
         r.n = n;
@@ -353,11 +330,11 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         bool through = rough ? ocean_refraction(n, w.ior, &r.d, &T, facet_u1, facet_u2)
                              : cs > 0.0 && refract(-s, n, 1.0, w.ior, &r.d);
         if (through) {
-            r.lit = !occluded(p + n * off, s);
+            r.lit = periodic ? !occluded_ocean(p + n * off, s) : !occluded(p + n * off, s);
         } else {
             r.d = -n;  // unlit grazing vertex: a placeholder direction into the water
         }
-        Hit h = intersect(p - n * off, r.d, cap);
+        Hit h = periodic ? intersect_ocean(p - n * off, r.d, cap) : intersect(p - n * off, r.d, cap);
         r.len = h.valid ? h.t + off : cap;
         r.id = h.valid ? h.id : -1;
         r.hn = h.valid ? h.n : Vec3();
@@ -376,7 +353,7 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             stack.pop_back();
             VertexRay r[3];
             const bool rough = st.periodic && ocean_rough;  // the ocean patch's facets
-            for (int j = 0; j < 3; ++j) r[j] = trace_vertex(it.p[j], it.n[j], st.water, rough);
+            for (int j = 0; j < 3; ++j) r[j] = trace_vertex(it.p[j], it.n[j], st.water, rough, st.periodic);
             int lit = int(r[0].lit) + int(r[1].lit) + int(r[2].lit);
             if (lit == 0) continue;
             // One prism is right only if its three rays end on one plane of one object; else
@@ -406,10 +383,17 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             if (rough && !ocean_refraction(st.nf, w.ior, &d_face, &T, facet_u1, facet_u2)) continue;
             for (int k = 0; k < nbands; ++k) P.phi.v[k] = e_sun.v[k] * cs * area * T;
             bool down = true;
+            // A water mesh's prism whose rays end on different faces (an object's edge at the
+            // finest level) runs on to its longest ray: the shadow rays of each query find
+            // where it is blocked, and an end face interpolated across the edge would cut off
+            // lit water beside the object.
+            double len_max = 0.0;
+            for (int j = 0; j < 3; ++j) len_max = std::max(len_max, r[j].len);
+            const bool run_on = !uniform && !st.periodic;
             for (int j = 0; j < 3; ++j) {
                 P.v[j] = it.p[j];
                 P.d[j] = r[j].d;
-                P.len[j] = r[j].len;
+                P.len[j] = run_on ? len_max : r[j].len;
                 P.hit[j] = r[j].id != -1;
                 down = down && -r[j].d.z > 0.1;
             }
@@ -425,6 +409,8 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             if (!ok) continue;  // vertex rays diverging by > 90 deg: no consistent slicing
             P.n_src = st.nf;
             P.water = st.water;
+            P.periodic = st.periodic;
+            P.partial_lit = lit < 3;
             P.check_visibility = !uniform;
             P.lo = Vec3(kInf, kInf, kInf);
             P.hi = Vec3(-kInf, -kInf, -kInf);
@@ -433,9 +419,10 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
                     P.lo = Vec3(std::min(P.lo.x, q.x), std::min(P.lo.y, q.y), std::min(P.lo.z, q.z));
                     P.hi = Vec3(std::max(P.hi.x, q.x), std::max(P.hi.y, q.y), std::max(P.hi.z, q.z));
                 }
-            // Periodic prisms are shifted at query time, so any object may cut one of their
-            // images: they test visibility whenever the scene has objects.
-            if (st.periodic && !object_boxes.empty()) P.check_visibility = true;
+            // Periodic prisms are shifted at query time, so any mesh may cut one of their
+            // images (or shade its source from above the water): they test visibility whenever
+            // the scene has meshes (meshes_block skips those far from the query).
+            if (st.periodic && !meshes.empty()) P.check_visibility = true;
             for (const auto& [lo, hi] : object_boxes)
                 if (lo.x <= P.hi.x && hi.x >= P.lo.x && lo.y <= P.hi.y && hi.y >= P.lo.y &&
                     lo.z <= P.hi.z && hi.z >= P.lo.z)
@@ -550,10 +537,31 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
     double src_area = 0.5 * length(cross(P.v[1] - P.v[0], P.v[2] - P.v[0]));
     double a_eff = std::max(std::fabs(S), beam_min_area_fraction * src_area);
     if (P.check_visibility) {
-        double off = offset_for(world);
-        if (occluded_segment(world, -d, std::max(0.0, l - 2.0 * off))) return false;
-        Vec3 q = world - d * l + P.n_src * off;
-        if (occluded(q, beam_sun_dir)) return false;
+        // The light reaching y entered the water at e, the point of the source triangle with
+        // y's barycentric coordinates (exactly on the surface, so the shadow rays start on the
+        // right side of it: a point extrapolated back along d lies above or below a wavy
+        // surface by more than the offsets, which dropped half the beams).
+        const Vec3 shift = world - y;
+        const Vec3 e = P.v[0] * l0 + P.v[1] * l1 + P.v[2] * l2 + shift;
+        const Vec3 to_e = e - world;
+        const double dist = length(to_e);
+        const double off = std::max(offset_for(world), offset_for(e));
+        if (dist > 0.0) {
+            const Vec3 u = to_e * (1.0 / dist);
+            // Periodic prisms: only the meshes can block (the surface and bottom repeat with
+            // the prism). A water mesh's prism: everything but its own source face.
+            if (P.periodic ? meshes_block(world, u, 0.0, dist - off)
+                           : occluded_segment(world, u, std::max(0.0, dist - 2.0 * off)))
+                return false;
+        }
+        const Vec3 q = e + P.n_src * off;
+        if (P.periodic) {
+            if (meshes_block(q, beam_sun_dir, 0.0, kInf)) return false;
+            // Wave-shaded corners: the surface's own shadow (else the build's lit test says).
+            if (P.partial_lit && occluded_ocean(q, beam_sun_dir)) return false;
+        } else if (occluded(q, beam_sun_dir)) {
+            return false;
+        }
     }
     out->d = d;
     if (!w.varying() || !exact) {

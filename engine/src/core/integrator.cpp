@@ -546,24 +546,34 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             sun_covered = has_sun;  // by the estimate above, or by the beams (hybrid, from below)
             beam_covered = false;
         } else {
-            // Water boundary with outward normal h.n.
+            // Water boundary with outward normal h.n. The ocean patch reflects and refracts
+            // about its shading normal, as its beams do (else paths and beams would see two
+            // different surfaces: facets and the smooth one), where both outcomes then leave on
+            // their own side of the facet; elsewhere, and where they would not, about h.n.
             const Water& w = waters[h.index];
             bool entering = dot(d, h.n) < 0.0;
             double n1 = entering ? 1.0 : w.ior, n2 = entering ? w.ior : 1.0;
-            Vec3 nf = entering ? h.n : -h.n;
+            const Vec3 ng = entering ? h.n : -h.n;  // the facet's, on the arriving side
+            Vec3 nf = ng;
+            Vec3 dtr;
+            if (h.id == -3 && !ocean_flat) {
+                const Vec3 ns = entering ? h.ns : -h.ns;
+                Vec3 t;
+                const bool tir = !refract(d, ns, n1, n2, &t);
+                if (dot(d, ns) < 0.0 && dot(reflect(d, ns), ng) > 0.0 && (tir || dot(t, ng) < 0.0)) nf = ns;
+            }
             double cos_i = -dot(d, nf);
             double F = fresnel_unpolarized(cos_i, n1, n2);
-            Vec3 dtr;
             if (rng.uniform() < F || !refract(d, nf, n1, n2, &dtr)) {
                 d = normalize(reflect(d, nf));
-                o = x + nf * off;
+                o = x + ng * off;
                 beam_covered = false;  // a reflected path is not a beam's straight line
             } else {
                 if (!entering) flush(w);  // leaving the water: beta must carry its absorption
                 double r = n1 / n2;
                 for (int k = 0; k < nb; ++k) beta.v[k] *= r * r;  // radiance n^2 law
                 d = dtr;
-                o = x - nf * off;
+                o = x - ng * off;
                 medium = entering ? h.index : -1;
                 if (entering) beam_covered = false;
             }

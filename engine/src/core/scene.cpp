@@ -1,5 +1,6 @@
 #include "scene.h"
 #include <cstring>
+#include <map>
 #include <limits>
 #include <stdexcept>
 
@@ -70,6 +71,8 @@ void Scene::commit() {
         ptrs.push_back(&m);
         for (size_t i = 0; i + 2 < m.vertices.size(); i += 3) grow(m.vertices[i], m.vertices[i + 1], m.vertices[i + 2]);
     }
+    meshes_lo_ = lo;
+    meshes_hi_ = hi;
     for (const auto& c : cameras) grow(c.position.x, c.position.y, c.position.z);
     for (const auto& r : radiometers) grow(r.position.x, r.position.y, r.position.z);
     if (ocean_water >= 0) grow(0, 0, ocean_z);
@@ -91,6 +94,7 @@ void Scene::commit() {
         }
         if (patch_scene_) rtcReleaseScene(patch_scene_);
         patch_scene_ = build_embree_scene(device_, {&rec});
+        if (patch_normals.size() != patch_vertices.size()) smooth_patch_normals();
         grow(patch_x0, patch_y0, patch_zmin);
         grow(patch_x0 + patch_lx, patch_y0 + patch_ly, patch_zmax);
         extent_ = std::max(1e-3, length(hi - lo));
@@ -100,6 +104,39 @@ void Scene::commit() {
     // Rays start on the near clipping plane, so the medium is the one there.
     for (auto& c : cameras) c.medium = medium_at(c.position + c.forward * c.clip_start);
     for (auto& r : radiometers) r.medium = medium_at(r.position);
+}
+
+void Scene::smooth_patch_normals() {
+    // Area-weighted normals of the faces around each vertex; vertices that are the same point
+    // of the periodic surface (on opposite seams) share one normal, so the tiles join smoothly.
+    const size_t nv = patch_vertices.size() / 3, nt = patch_triangles.size() / 3;
+    auto V = [&](size_t i) { return Vec3(patch_vertices[3 * i], patch_vertices[3 * i + 1], patch_vertices[3 * i + 2]); };
+    std::vector<Vec3> vn(nv);
+    std::map<std::pair<long, long>, std::vector<size_t>> same;
+    const double qx = patch_lx * 1e-7, qy = patch_ly * 1e-7;
+    for (size_t i = 0; i < nv; ++i) {
+        Vec3 p = V(i);
+        double fx = std::fmod(p.x - patch_x0, patch_lx); if (fx < 0) fx += patch_lx;
+        double fy = std::fmod(p.y - patch_y0, patch_ly); if (fy < 0) fy += patch_ly;
+        long kx = std::lround(fx / qx), ky = std::lround(fy / qy);
+        if (kx >= std::lround(patch_lx / qx)) kx = 0;
+        if (ky >= std::lround(patch_ly / qy)) ky = 0;
+        same[{kx, ky}].push_back(i);
+    }
+    for (size_t t = 0; t < nt; ++t) {
+        const uint32_t* tri = &patch_triangles[3 * t];
+        Vec3 c = cross(V(tri[1]) - V(tri[0]), V(tri[2]) - V(tri[0]));  // area weighted
+        if (c.z < 0) c = -c;
+        for (int j = 0; j < 3; ++j) vn[tri[j]] += c;
+    }
+    for (auto& [key, ids] : same) {
+        Vec3 sum;
+        for (size_t i : ids) sum += vn[i];
+        for (size_t i : ids) vn[i] = normalize(sum);
+    }
+    patch_normals.resize(3 * nv);
+    for (size_t i = 0; i < nv; ++i)
+        for (int c = 0; c < 3; ++c) patch_normals[3 * i + c] = float(vn[i][c]);
 }
 
 bool Scene::intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit) const {
@@ -142,7 +179,7 @@ bool Scene::intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit)
                 Vec3 n = normalize(cross(v(tri[1]) - v(tri[0]), v(tri[2]) - v(tri[0])));
                 if (n.z < 0) n = -n;  // water lies below the surface: outward is up
                 hit->ns = n;
-                if (patch_normals.size() == patch_vertices.size()) {  // exact normals given
+                if (patch_normals.size() == patch_vertices.size()) {  // (always, after commit)
                     auto vn = [&](uint32_t k) { return Vec3(patch_normals[3 * k], patch_normals[3 * k + 1], patch_normals[3 * k + 2]); };
                     double u = rh.hit.u, w = rh.hit.v;
                     Vec3 ns = normalize(vn(tri[0]) * (1.0 - u - w) + vn(tri[1]) * u + vn(tri[2]) * w);
@@ -177,25 +214,31 @@ Hit Scene::intersect(const Vec3& o, const Vec3& d, double tmax) const {
         hit.kind = m.kind;
         hit.index = m.index;
     }
-    if (ocean_water >= 0) {
-        if (ocean_flat) {
-            if (d.z != 0.0) {
-                double t = (ocean_z - o.z) / d.z;
-                if (t > 0.0 && t < hit.t) {
-                    hit.valid = true; hit.t = t; hit.n = Vec3(0, 0, 1); hit.ns = hit.n; hit.id = -3;
-                    hit.kind = SurfaceKind::kWaterBoundary; hit.index = ocean_water;
-                }
-            }
-        } else {
-            Hit ph;
-            if (intersect_patch(o, d, hit.t, &ph)) hit = ph;
-        }
-        if (has_bottom && d.z != 0.0) {
-            double t = (bottom_z - o.z) / d.z;
+    Hit oh = intersect_ocean(o, d, hit.t);
+    return oh.valid ? oh : hit;
+}
+
+Hit Scene::intersect_ocean(const Vec3& o, const Vec3& d, double tmax) const {
+    Hit hit;
+    hit.t = tmax;
+    if (ocean_water < 0) return hit;
+    if (ocean_flat) {
+        if (d.z != 0.0) {
+            double t = (ocean_z - o.z) / d.z;
             if (t > 0.0 && t < hit.t) {
-                hit.valid = true; hit.t = t; hit.n = Vec3(0, 0, 1); hit.id = -2;
-                hit.kind = SurfaceKind::kOpaque; hit.index = bottom_material;
+                hit.valid = true; hit.t = t; hit.n = Vec3(0, 0, 1); hit.ns = hit.n; hit.id = -3;
+                hit.kind = SurfaceKind::kWaterBoundary; hit.index = ocean_water;
             }
+        }
+    } else {
+        Hit ph;
+        if (intersect_patch(o, d, hit.t, &ph)) hit = ph;
+    }
+    if (has_bottom && d.z != 0.0) {
+        double t = (bottom_z - o.z) / d.z;
+        if (t > 0.0 && t < hit.t) {
+            hit.valid = true; hit.t = t; hit.n = Vec3(0, 0, 1); hit.id = -2;
+            hit.kind = SurfaceKind::kOpaque; hit.index = bottom_material;
         }
     }
     return hit;
@@ -207,16 +250,41 @@ bool Scene::occluded(const Vec3& o, const Vec3& d) const {
     RTCRayHit rh = make_rayhit(o, d, 0.0, kInf);
     rtcOccluded1(scene_, &ctx, &rh.ray);
     if (rh.ray.tfar < 0.0f) return true;
-    if (ocean_water >= 0) {
-        Hit h;
-        if (ocean_flat) {
-            if (d.z != 0.0 && (ocean_z - o.z) / d.z > 0.0) return true;
-        } else if (intersect_patch(o, d, kInf, &h)) {
-            return true;
-        }
-        if (has_bottom && d.z != 0.0 && (bottom_z - o.z) / d.z > 0.0) return true;
+    return occluded_ocean(o, d);
+}
+
+bool Scene::occluded_ocean(const Vec3& o, const Vec3& d) const {
+    if (ocean_water < 0) return false;
+    Hit h;
+    if (ocean_flat) {
+        if (d.z != 0.0 && (ocean_z - o.z) / d.z > 0.0) return true;
+    } else if (intersect_patch(o, d, kInf, &h)) {
+        return true;
     }
-    return false;
+    return has_bottom && d.z != 0.0 && (bottom_z - o.z) / d.z > 0.0;
+}
+
+bool Scene::meshes_block(const Vec3& o, const Vec3& d, double tnear, double tfar) const {
+    // The segment against the meshes' box (slabs) first: most beam queries are far from any
+    // object, and this costs a few flops against an Embree traversal.
+    double t0 = std::max(0.0, tnear), t1 = tfar;
+    for (int a = 0; a < 3 && t0 <= t1; ++a) {
+        const double lo = meshes_lo_[a], hi = meshes_hi_[a], oa = o[a], da = d[a];
+        if (da == 0.0) {
+            if (oa < lo || oa > hi) return false;
+            continue;
+        }
+        double ta = (lo - oa) / da, tb = (hi - oa) / da;
+        if (ta > tb) std::swap(ta, tb);
+        t0 = std::max(t0, ta);
+        t1 = std::min(t1, tb);
+    }
+    if (!(t0 <= t1)) return false;
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHit rh = make_rayhit(o, d, tnear, tfar);
+    rtcOccluded1(scene_, &ctx, &rh.ray);
+    return rh.ray.tfar < 0.0f;
 }
 
 bool Scene::occluded_segment(const Vec3& o, const Vec3& d, double tmax) const {

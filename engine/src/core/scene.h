@@ -281,6 +281,11 @@ struct BeamPrism {
     Spectrum phi;      // flux entering the water through the triangle, per band
     int water = 0;
     bool check_visibility = false;  // an object may cut this prism: test a shadow ray
+    // Below the periodic ocean patch: traced without the scene's meshes (each query shifts the
+    // prism into the period it asks about, where other objects stand), so they are met by the
+    // shadow rays at query time instead.
+    bool periodic = false;
+    bool partial_lit = false;       // a vertex of its source is in a wave's shadow
     Vec3 lo, hi;       // bounding box
 };
 
@@ -322,7 +327,9 @@ public:
     double ocean_z = 0.0;             // flat surface height (or patch mean)
     std::vector<float> patch_vertices;
     std::vector<uint32_t> patch_triangles;
-    std::vector<float> patch_normals;  // optional unit vertex normals (air side); empty: from the mesh
+    // Unit vertex normals (air side): given (a wave model's exact ones), or made at commit from
+    // the mesh (smooth_patch_normals). Beams and paths both refract about them.
+    std::vector<float> patch_normals;
     double patch_x0 = 0, patch_y0 = 0, patch_lx = 1, patch_ly = 1, patch_zmin = 0, patch_zmax = 0;
     bool has_bottom = false;
     double bottom_z = 0.0;
@@ -385,6 +392,13 @@ public:
     // --- queries ----------------------------------------------------------------
     Hit intersect(const Vec3& o, const Vec3& d, double tmax = kInf) const;  // closest hit before tmax
     bool occluded(const Vec3& o, const Vec3& d) const;  // to infinity
+    // The same without the meshes: only the ocean's surface and bottom, which repeat with the
+    // patch's period (the periodic beams are traced against these alone).
+    Hit intersect_ocean(const Vec3& o, const Vec3& d, double tmax = kInf) const;
+    bool occluded_ocean(const Vec3& o, const Vec3& d) const;
+    // Whether a mesh (opaque or water boundary) lies on the segment o + t d, tnear < t < tfar;
+    // false at once when the segment misses the meshes' bounding box.
+    bool meshes_block(const Vec3& o, const Vec3& d, double tnear, double tfar) const;
     int medium_at(const Vec3& p) const;
     double offset_for(const Vec3& p) const { return eps_ + 4e-6 * max_abs(p); }
 
@@ -435,6 +449,7 @@ public:
     double scene_extent() const { return extent_; }
 
     bool intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit) const;
+    void smooth_patch_normals();  // patch_normals from the mesh (area weighted, seams shared)
     // Beam of prism P at y (primary-patch frame; `world` is the same point unshifted).
     bool prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, BeamSample* out,
                     bool exact = true) const;
@@ -450,6 +465,7 @@ private:
     RTCScene scene_ = nullptr;
     RTCScene patch_scene_ = nullptr;
     double eps_ = 1e-6, extent_ = 1.0;
+    Vec3 meshes_lo_{kInf, kInf, kInf}, meshes_hi_{-kInf, -kInf, -kInf};  // bounds of all meshes
 };
 
 }  // namespace photic
