@@ -82,6 +82,9 @@ def radiometer_summary(result) -> list[dict]:
     """Rows for the Render panel: one per radiometer with values per band."""
     return [{"name": r.name, "quantity": r.quantity, "medium": r.medium,
              "value": r.mean[0].tolist(), "stderr": r.stderr[0].tolist(),
+             "trusted": [bool(t) for t in (r.reliable[0] if getattr(r, "reliable", None) is not None
+                                           else [True] * r.mean.shape[1])],
+             "notes": list(getattr(r, "notes", [])),
              "bins": r.mean.shape[0], "units": r.units} for r in result.radiometers]
 
 

@@ -101,9 +101,15 @@ class PHOTIC_PT_radiometer_results(PhoticPanel, bpy.types.Panel):
             layout.label(text="Render was cancelled: partial results", icon="INFO")
         layout.label(text="Bands (nm): " + ", ".join(last["bands"]))
         for row in last["rows"][:40]:
-            values = ", ".join(f"{v:.4g}±{e:.2g}" for v, e in zip(row["value"], row["stderr"]))
+            # '?': a standard error not to be trusted (too few passes, heavy tails)
+            trusted = row.get("trusted", [True] * len(row["value"]))
+            values = ", ".join(f"{v:.4g}±{e:.2g}{'' if t else '?'}"
+                               for v, e, t in zip(row["value"], row["stderr"], trusted))
             extra = f" ({row['bins']} bins, first shown)" if row["bins"] > 1 else ""
             layout.label(text=f"{row['name']} {row['quantity']} [{row['medium']}]: {values}{extra}")
+            if not all(trusted):
+                layout.label(text="    ? error not to be trusted: " + ", ".join(row.get("notes", [])),
+                             icon="ERROR")
         if len(last["rows"]) > 40:
             layout.label(text=f"... {len(last['rows']) - 40} more in the radiometer tables")
 

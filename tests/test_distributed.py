@@ -23,13 +23,13 @@ EXAMPLE = ROOT / "examples" / "coastal_shelf.json"
 
 # Two items (sun zenith 20 and 50 deg) of the coastal shelf at a small size: 24 x 16 pixels,
 # 4 samples per pixel (camera passes of 1, 2 and 1 samples: 3 units), 12 radiometers of
-# 8,192 samples (2 hybrid passes, 1 per unit): 27 units of ~0.05-0.2 s per item.
+# 8,192 samples (8 hybrid passes, 4 per unit): 27 units of ~0.05-0.2 s per item.
 JOB = {"photic_job": 1, "name": "tiny",
        "inputs": [str(EXAMPLE)],
        "set": {"cameras.diver.resolution": [24, 16]},
        "sweep": {"sun.zenith_deg": [20, 50]},
        "samples": 4, "radiometer_samples": 8192, "seed": 11,
-       "units": {"radiometer_passes": 1}}
+       "units": {"radiometer_passes": 4}}
 
 
 def _job(**changes):

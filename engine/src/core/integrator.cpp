@@ -765,14 +765,37 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
     }
 }
 
+namespace {
+
+// Count, mean and central sums of powers 2-4 of a set of samples (Pebay 2008: the sums of two
+// sets merge exactly, without the cancellation of raw power sums).
+struct Moments {
+    double n = 0, mean = 0, m2 = 0, m3 = 0, m4 = 0;
+    void merge(const Moments& b) {
+        if (b.n == 0) return;
+        if (n == 0) { *this = b; return; }
+        const double na = n, nb = b.n, nn = na + nb, d = b.mean - mean, d2 = d * d;
+        m4 += b.m4 + d2 * d2 * na * nb * (na * na - na * nb + nb * nb) / (nn * nn * nn) +
+              6.0 * d2 * (na * na * b.m2 + nb * nb * m2) / (nn * nn) + 4.0 * d * (na * b.m3 - nb * m3) / nn;
+        m3 += b.m3 + d2 * d * na * nb * (na - nb) / (nn * nn) + 3.0 * d * (na * b.m2 - nb * m2) / nn;
+        m2 += b.m2 + d2 * na * nb / nn;
+        mean += d * nb / nn;
+        n = nn;
+    }
+};
+
+}  // namespace
+
 void Scene::render_radiometer(int ri, uint64_t start, uint64_t count, int threads,
-                              double* sum, double* sumsq, Counters* total) const {
+                              double* sum, double* sumsq, Counters* total, double* moments) const {
     const Radiometer& r = radiometers.at(ri);
     const int nb = nbands, nbins = r.bins();
     const size_t stride = size_t(kNumComponents) * nb;
     const uint64_t kChunk = 1024;
     size_t nchunks = size_t((count + kChunk - 1) / kChunk);
     std::vector<double> csum(nchunks * nbins * stride, 0.0), csq(nchunks * nbins * stride, 0.0);
+    // Per chunk, bin and band: the total's moments (two passes over the chunk's samples).
+    std::vector<Moments> cmom(moments ? nchunks * nbins * nb : 0);
     int nthreads = threads <= 0 ? int(std::max(1u, std::thread::hardware_concurrency())) : threads;
     std::vector<Counters> per_thread(std::max(64, nthreads));
     // The beams at the sensor: fixed within the pass (its position and these beams), so
@@ -784,12 +807,37 @@ void Scene::render_radiometer(int ri, uint64_t start, uint64_t count, int thread
         uint64_t b = start + chunk * kChunk, e = std::min(start + count, b + kChunk);
         double* s = &csum[chunk * nbins * stride];
         double* s2 = &csq[chunk * nbins * stride];
+        thread_local std::vector<double> totals;  // the chunk's totals (moments only)
+        thread_local std::vector<int> bins;
+        totals.clear();
+        bins.clear();
         for (uint64_t i = b; i < e; ++i) {
             Spectrum comp[kNumComponents];
             int bin = 0;
             radiometer_sample(ri, i, at_sensor.data(), n_at_sensor, comp, &bin, per_thread[tid]);
             accumulate(comp, nb, s + bin * stride, s2 + bin * stride);
+            if (moments) {
+                bins.push_back(bin);
+                for (int k = 0; k < nb; ++k)
+                    totals.push_back(comp[1].v[k] + comp[2].v[k] + comp[3].v[k] + comp[4].v[k]);
+            }
         }
+        if (!moments) return;
+        Moments* m = &cmom[chunk * nbins * nb];
+        const double* tsum = s;  // per bin: the total's sum is component 0 of the sums
+        for (size_t j = 0; j < bins.size(); ++j)
+            for (int k = 0; k < nb; ++k) m[bins[j] * nb + k].n += 1.0;
+        for (int bi = 0; bi < nbins; ++bi)
+            for (int k = 0; k < nb; ++k)
+                if (m[bi * nb + k].n > 0) m[bi * nb + k].mean = tsum[bi * stride + k] / m[bi * nb + k].n;
+        for (size_t j = 0; j < bins.size(); ++j)
+            for (int k = 0; k < nb; ++k) {
+                Moments& q = m[bins[j] * nb + k];
+                const double d = totals[j * nb + k] - q.mean, d2 = d * d;
+                q.m2 += d2;
+                q.m3 += d2 * d;
+                q.m4 += d2 * d2;
+            }
     });
     // Reduce in chunk order so the result is independent of the thread count.
     for (size_t ch = 0; ch < nchunks; ++ch)
@@ -797,6 +845,16 @@ void Scene::render_radiometer(int ri, uint64_t start, uint64_t count, int thread
             sum[i] += csum[ch * nbins * stride + i];
             sumsq[i] += csq[ch * nbins * stride + i];
         }
+    if (moments) {
+        for (int i = 0; i < nbins * nb; ++i) {
+            Moments acc;
+            for (size_t ch = 0; ch < nchunks; ++ch) acc.merge(cmom[ch * nbins * nb + i]);
+            const int bi = i / nb, k = i % nb;
+            moments[(bi * 3 + 0) * nb + k] = acc.m2;
+            moments[(bi * 3 + 1) * nb + k] = acc.m3;
+            moments[(bi * 3 + 2) * nb + k] = acc.m4;
+        }
+    }
     if (total)
         for (const auto& c : per_thread) {
             total->segments += c.segments; total->shadow_rays += c.shadow_rays; total->paths += c.paths;

@@ -459,18 +459,29 @@ PYBIND11_MODULE(_core, m) {
         }, py::arg("camera"), py::arg("start"), py::arg("count"), py::arg("threads") = 0, py::arg("out") = py::none(),
            "One pass of samples [start, start + count) per pixel: (sum, sum of squares, counters); "
            "out = (sum, sum of squares) arrays to fill instead of new ones.")
-        .def("render_radiometer", [](const Scene& s, int rad, uint64_t start, uint64_t count, int threads, py::object out) {
+        .def("render_radiometer", [](const Scene& s, int rad, uint64_t start, uint64_t count, int threads, py::object out,
+                                     py::object moments) {
             int nbins = s.radiometers.at(rad).bins();
             auto [sum, sq] = pass_buffers(out, {nbins, kNumComponents, s.nbands});
+            double* mom = nullptr;
+            if (!moments.is_none()) {
+                auto a = moments.cast<py::array>();
+                if (!py::isinstance<py::array_t<double>>(a) || !(a.flags() & py::array::c_style) || !a.writeable() ||
+                    std::vector<py::ssize_t>(a.shape(), a.shape() + a.ndim()) != std::vector<py::ssize_t>{nbins, 3, s.nbands})
+                    throw std::invalid_argument("moments: expected a writable C-contiguous float64 (bins, 3, bands) array");
+                mom = static_cast<double*>(a.mutable_data());
+            }
             Counters cnt;
             {
                 py::gil_scoped_release nogil;
-                s.render_radiometer(rad, start, count, threads, sum.mutable_data(), sq.mutable_data(), &cnt);
+                s.render_radiometer(rad, start, count, threads, sum.mutable_data(), sq.mutable_data(), &cnt, mom);
             }
             return py::make_tuple(sum, sq, counters_dict(cnt));
         }, py::arg("radiometer"), py::arg("start"), py::arg("count"), py::arg("threads") = 0, py::arg("out") = py::none(),
+           py::arg("moments") = py::none(),
            "One pass of samples [start, start + count): (sum, sum of squares, counters); out as for "
-           "render_camera.")
+           "render_camera; moments: a (bins, 3, bands) array filled with the total's central sums of "
+           "powers 2, 3, 4 about the pass's mean.")
         .def("trace_rays", [](const Scene& s, FArray o, FArray d, int threads) {
             if (o.ndim() != 2 || o.shape(1) != 3 || d.ndim() != 2 || d.shape(1) != 3 || o.shape(0) != d.shape(0))
                 throw std::invalid_argument("origins and directions must be matching (N, 3) arrays");

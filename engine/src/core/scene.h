@@ -436,8 +436,12 @@ public:
     void render_camera(int cam, uint64_t start, uint64_t count, int threads,
                        double* sum, double* sumsq, Counters* total) const;
     // Sums over samples [start, start + count) per bin, component and band (chunked, fixed order).
+    // moments (optional): per bin and band, the total's central sums of powers 2, 3 and 4 about
+    // the pass's own mean, moments[(bin * 3 + (power - 2)) * nbands + band]: the tails of the
+    // samples' distribution (the variance of the variance), exact where raw power sums would
+    // cancel.
     void render_radiometer(int rad, uint64_t start, uint64_t count, int threads,
-                           double* sum, double* sumsq, Counters* total) const;
+                           double* sum, double* sumsq, Counters* total, double* moments = nullptr) const;
     // One radiometer sample: out[component] per band.
     // at_sensor: the beams at the radiometer (the same for all its samples in a pass).
     void radiometer_sample(int rad, uint64_t index, const BeamSample* at_sensor, int n_at_sensor,

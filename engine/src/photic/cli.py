@@ -8,14 +8,19 @@ import signal
 import sys
 from pathlib import Path
 
+import numpy as np
+
 
 def _format_value(v: float, e: float) -> str:
     return f"{v:.6g} +- {e:.2g}"
 
 
 def radiometer_table(result) -> str:
-    """Closing table: one line per radiometer and band (distributions summarised)."""
-    lines = [f"{'radiometer':<28} {'quantity':<22} {'medium':<10} {'band':<8} {'value +- stderr':<28} {'rel.err':>8}"]
+    """Closing table: one line per radiometer and band (distributions summarised). A standard
+    error that cannot be trusted (photic.estimates: too few passes, heavy tails) is marked with
+    '?' and the reason is given under the table."""
+    lines = [f"{'radiometer':<28} {'quantity':<22} {'medium':<10} {'band':<8} {'value +- stderr':<28} {'rel.err':>9}"]
+    flagged = {}
     for r in result.radiometers:
         for k, band in enumerate(result.bands):
             if r.bins:
@@ -24,8 +29,15 @@ def radiometer_table(result) -> str:
             else:
                 v, e = float(r.mean[0, k]), float(r.stderr[0, k])
                 label = r.quantity
-            rel = f"{100 * e / abs(v):.2f}%" if v else "-"
-            lines.append(f"{r.name:<28} {label:<22} {r.medium:<10} {band.name:<8} {_format_value(v, e):<28} {rel:>8}")
+            trusted = r.reliable is None or bool(np.all(r.reliable[:, k]))
+            if not trusted:
+                flagged[r.name] = r.notes
+            rel = (f"{100 * e / abs(v):.2f}%" if v else "-") + ("" if trusted else "?")
+            lines.append(f"{r.name:<28} {label:<22} {r.medium:<10} {band.name:<8} {_format_value(v, e):<28} {rel:>9}")
+    if flagged:
+        lines.append("? standard error not to be trusted (more samples, or a forward cone, help):")
+        for name, notes in flagged.items():
+            lines.append(f"    {name}: {', '.join(notes) or 'see the tables'}")
     return "\n".join(lines)
 
 

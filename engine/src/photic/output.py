@@ -68,6 +68,16 @@ def write_exr(path, result: RenderResult, camera: str) -> Path:
     return path
 
 
+def _trusted(r, b: int, k: int) -> bool:
+    """Whether the standard error of bin b, band k can be trusted (photic.estimates)."""
+    return r.reliable is None or bool(r.reliable[b, k])
+
+
+def _note(r, b: int, k: int) -> str:
+    """Why a standard error is not to be trusted ('' when it is)."""
+    return "" if _trusted(r, b, k) else "; ".join(r.notes)
+
+
 def radiometer_rows(result: RenderResult) -> list[dict]:
     """One row per radiometer, bin and band."""
     rows = []
@@ -79,6 +89,7 @@ def radiometer_rows(result: RenderResult) -> list[dict]:
                        "x_m": r.position[0], "y_m": r.position[1], "z_m": r.position[2],
                        "medium": r.medium, "band": band.name, "center_nm": band.center_nm,
                        "bin": b, "value": float(r.mean[b, k]), "stderr": float(r.stderr[b, k]),
+                       "stderr_trusted": _trusted(r, b, k), "stderr_note": _note(r, b, k),
                        "samples": r.samples, "units": r.units}
                 for c in COMPONENTS:
                     if c in r.components:
@@ -101,14 +112,15 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
     rows = radiometer_rows(result)
     csv_path = out_dir / f"{stem}_radiometers.csv"
     fields = ["name", "quantity", "x_m", "y_m", "z_m", "medium", "band", "center_nm", "bin",
-              "polar_deg", "azimuth_deg", "value", "stderr",
+              "polar_deg", "azimuth_deg", "value", "stderr", "stderr_trusted", "stderr_note",
               *(f"value_{c}" for c in COMPONENTS), *(f"stderr_{c}" for c in COMPONENTS),
               "samples", "units"]
     with open(csv_path, "w", newline="") as f:
         f.write(f"# photic {__version__}; scene {result.scene_name}; seed {result.stats.get('seed')}; "
                 f"integrator {result.stats.get('integrator')}; "
                 f"forward cone {result.stats.get('forward_cone_deg')} deg; "
-                "value = Monte Carlo mean, stderr = its standard error; "
+                "value = Monte Carlo mean, stderr = its standard error (stderr_trusted False: not to be "
+                "trusted, stderr_note says why: too few passes, heavy tails of the samples); "
                 "value = value_beam_surface + value_beam_volume + value_path + value_beam_direct (" +
                 "; ".join(f"{c}: {COMPONENT_DESCRIPTIONS[c]}" for c in COMPONENTS) + ")\n")
         w = csv.DictWriter(f, fieldnames=fields)
@@ -123,6 +135,8 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
                             "medium": r.medium, "units": r.units, "samples": r.samples,
                             "bins": list(r.bins) if r.bins else None,
                             "value": r.mean.tolist(), "stderr": r.stderr.tolist(),
+                            "stderr_trusted": (r.reliable.tolist() if r.reliable is not None else None),
+                            "stderr_notes": list(r.notes),
                             "components": {c: {"value": r.components[c][0].tolist(),
                                                "stderr": r.components[c][1].tolist()}
                                            for c in COMPONENTS if c in r.components}}

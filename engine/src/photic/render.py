@@ -16,9 +16,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .compile import band_groups, compile_scene
+from .estimates import (CameraSums, RadiometerSums, bin_counts, combine_rounds, image_variance,
+                        mean_stderr)
 from .scene import IOPGrid, IOPProfile, Scene, SceneError
 
 RADIOMETER_PASS = 1 << 16  # samples per radiometer pass (a multiple of the core's chunk)
+PAIRED_PASS = 1 << 12      # at most this many per pass in paired strata (more pairs, finer strata)
+MIN_PAIRED_PASSES = 8      # paired strata: at least 4 pairs (photic.estimates.MIN_STRATA)
 UNITS_RADIANCE = "W m^-2 sr^-1 (per unit of the band's source spectrum, e.g. nm^-1)"
 UNITS_IRRADIANCE = "W m^-2 (per unit of the band's source spectrum, e.g. nm^-1)"
 IRRADIANCE_QUANTITIES = {"Ed", "Eu", "Eo", "Eod", "Eou"}
@@ -51,6 +55,11 @@ class RadiometerResult:
     samples: int              # total samples (shared by the bins of a distribution)
     bins: tuple[int, int] | None = None  # (polar, azimuth) for radiance distributions
     components: dict = field(default_factory=dict)  # name -> (mean, stderr), each (nbins, nbands)
+    # Whether each standard error can be trusted (nbins, nbands), and why not (photic.estimates:
+    # "too few passes", "heavy tails", ...); vov: the relative variance of the variance.
+    reliable: np.ndarray | None = None
+    notes: list = field(default_factory=list)
+    vov: np.ndarray | None = None
 
     @property
     def units(self) -> str:
@@ -144,18 +153,28 @@ def resolve_forward_cone(scene: Scene) -> float:
     return AUTO_CONE_DEG if optical_depth_scale(scene) > AUTO_CONE_TAU else 0.0
 
 
-GOLDEN_ANGLE = np.pi * (3.0 - np.sqrt(5.0))
+def concentric_disk(u1: float, u2: float) -> tuple[float, float]:
+    """A point of the unit square mapped to the unit disk, preserving areas with little
+    distortion (Shirley & Chiu 1997): strata of the square stay compact on the disk."""
+    a, b = 2.0 * u1 - 1.0, 2.0 * u2 - 1.0
+    if a == 0.0 and b == 0.0:
+        return 0.0, 0.0
+    if abs(a) > abs(b):
+        r, phi = a, np.pi / 4 * (b / a)
+    else:
+        r, phi = b, np.pi / 2 - np.pi / 4 * (a / b)
+    return r * np.cos(phi), r * np.sin(phi)
 
 
-def sun_direction_in_disk(scene: Scene, i: int, n: int, rng: np.random.Generator) -> np.ndarray:
-    """Direction ``i`` of ``n`` stratified over the sun's disk (equal solid angles, a
-    Fibonacci spiral randomly rotated and jittered by ``rng``): the beams of n passes together
-    sample the whole disk evenly, so soft caustic edges converge with the passes."""
+def sun_direction(scene: Scene, u1: float, u2: float) -> np.ndarray:
+    """The direction of the sun's disk at the square's point (u1, u2): uniform in solid angle
+    for uniform (u1, u2)."""
     s = np.asarray(scene.sun.direction, float)
     alpha = np.radians(scene.sun.angular_diameter_deg) / 2
-    u0, phi0 = rng.random(), 2 * np.pi * rng.random()
-    cos_t = 1.0 - ((i % n) + u0) / n * (1.0 - np.cos(alpha))
-    phi = phi0 + GOLDEN_ANGLE * i
+    x, y = concentric_disk(u1, u2)
+    rho2 = x * x + y * y
+    cos_t = 1.0 - rho2 * (1.0 - np.cos(alpha))
+    phi = np.arctan2(y, x)
     a = np.array([1.0, 0.0, 0.0]) if abs(s[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     u = np.cross(s, a); u /= np.linalg.norm(u)
     v = np.cross(s, u)
@@ -164,22 +183,38 @@ def sun_direction_in_disk(scene: Scene, i: int, n: int, rng: np.random.Generator
     return d / np.linalg.norm(d)
 
 
-def _bin_counts(total: int, nbins: int) -> np.ndarray:
-    """Samples per bin when sample i goes to bin i % nbins."""
-    counts = np.full(nbins, total // nbins, dtype=np.int64)
-    counts[: total % nbins] += 1
-    return counts
+def strata_grid(k: int) -> tuple[int, int]:
+    """k equal strata of the unit square as an a x b grid (a <= b, a as large as divides k)."""
+    a = int(np.sqrt(k))
+    while k % a:
+        a -= 1
+    return a, k // a
 
 
-def _mean_stderr(s: np.ndarray, s2: np.ndarray, n) -> tuple[np.ndarray, np.ndarray]:
-    n = np.asarray(n, dtype=np.float64)
-    nn = np.maximum(n, 1.0)
-    mean = s / nn
-    var = np.maximum(s2 / nn - mean * mean, 0.0) * nn / np.maximum(nn - 1.0, 1.0)
-    return mean, np.sqrt(var / nn)
+def pass_draw(seed: int, key: tuple, i: int, n: int, paired: bool,
+              rough: bool = False) -> tuple[float, float, float, float]:
+    """The random numbers of pass ``i`` of ``n``: (u1, u2) for its sun direction and (f1, f2)
+    for a rough sea's facet. Paired passes (radiometers): passes 2k and 2k + 1 draw
+    independently in stratum k of n // 2 strata (photic.estimates) of the square of the sun's
+    direction, or with a ``rough`` sea of its facet's (whose spread, over slopes of several
+    degrees, is the larger one by far); otherwise every pass draws independently (cameras).
+    Deterministic per seed, sensor ``key`` and pass, and the same for every band group, so
+    spectra share their directions."""
+    r = np.random.default_rng([seed, 0x5D15C, *key, i]).random(4)
+    if paired and n >= 2:
+        a, b = strata_grid(n // 2)
+        k = min(i // 2, n // 2 - 1)
+        j = 2 if rough else 0
+        r[j], r[j + 1] = (k % a + r[j]) / a, (k // a + r[j + 1]) / b
+    return r[0], r[1], r[2], r[3]
 
 
 # --- pieces shared with photic.distributed, whose work units must reproduce these passes -----
+
+# Kept under their old names for photic.distributed and the tests.
+_bin_counts = bin_counts
+_mean_stderr = mean_stderr
+
 
 def camera_passes(samples: int) -> list[tuple[int, int]]:
     """(first sample, count) of each camera pass: 1, 2, 4, 8, then 16 samples per pixel."""
@@ -192,71 +227,68 @@ def camera_passes(samples: int) -> list[tuple[int, int]]:
     return passes
 
 
-def radiometer_passes(samples: int, hybrid: bool) -> list[tuple[int, int]]:
+def radiometer_passes(samples: int, paired: bool) -> list[tuple[int, int]]:
     """(first sample, count) of each radiometer pass.
 
-    The hybrid integrator draws a sun direction per pass: at least 64 passes (of 4,096 to
-    65,536 samples) so the disk is sampled evenly and its spread stays well inside the
-    reported standard error."""
-    size = RADIOMETER_PASS
-    if hybrid:
-        size = int(np.clip(-(-samples // 64) // 1024 * 1024, 4096, RADIOMETER_PASS))
-    return [(s, min(size, samples - s)) for s in range(0, samples, size)]
+    paired (the hybrid integrator with a sun): an even number of passes, at least 8 (4 pairs
+    of strata of the sun's disk: photic.estimates) and more for large counts (at most
+    PAIRED_PASS samples each: 1M samples are 256 passes), whose sizes differ by one at most;
+    otherwise passes of
+    RADIOMETER_PASS samples."""
+    if not paired:
+        return [(s, min(RADIOMETER_PASS, samples - s)) for s in range(0, samples, RADIOMETER_PASS)]
+    if samples < 2:
+        return [(0, samples)]
+    npass = MIN_PAIRED_PASSES
+    while samples > npass * PAIRED_PASS:
+        npass *= 2
+    npass = min(npass, samples - samples % 2)
+    base, extra = divmod(samples, npass)
+    passes, start = [], 0
+    for p in range(npass):
+        n = base + (1 if p < extra else 0)
+        passes.append((start, n))
+        start += n
+    return passes
 
 
-def build_pass_beams(core, scene: Scene, seed: int, gi: int, key: tuple, i: int, n: int,
-                     threads: int) -> None:
-    """Before pass ``i`` of ``n`` of the hybrid integrator: beams for direction i of n drawn in
-    the sun's disk (deterministic per seed, band group ``gi`` and sensor ``key``)."""
-    rng = np.random.default_rng([seed, gi, *key])
-    direction = tuple(sun_direction_in_disk(scene, i, n, rng))
+def uses_beams(scene: Scene, hybrid: bool) -> bool:
+    """Whether a render builds beams (per pass): the hybrid integrator with a sun."""
+    return hybrid and scene.sun is not None
+
+
+def build_pass_beams(core, scene: Scene, seed: int, key: tuple, i: int, n: int, threads: int,
+                     paired: bool) -> None:
+    """Before pass ``i`` of ``n`` of the hybrid integrator: beams for the sun direction (and a
+    rough sea's facet) that pass_draw gives it. Without a sun there are no beams."""
+    if scene.sun is None:
+        return
+    u1, u2, f1, f2 = pass_draw(seed, key, i, n, paired, core.ocean_rough)
+    direction = tuple(sun_direction(scene, u1, u2))
     if core.ocean_rough:
-        # The sub-pixel facet(s) of the rough surface for this build, stratified over
-        # the passes like the sun's disk.
-        r = rng.random(2)
-        core.build_beams(direction, threads,
-                         ((i + r[0]) / n, (r[1] + i * 0.6180339887498949) % 1.0))
+        core.build_beams(direction, threads, (f1, f2))
     else:
         core.build_beams(direction, threads)
 
 
-def image_result(name: str, s: np.ndarray, s2: np.ndarray, n: int) -> ImageResult:
-    """A camera's result from its sums (H, W, components + 1, nbands) over ``n`` samples."""
-    mean, err = _mean_stderr(s, s2, n)
+def image_result(name: str, sums: CameraSums, n: int) -> ImageResult:
+    """A camera's result from its sums over ``n`` samples per pixel."""
+    mean, _ = mean_stderr(sums.s, sums.s2, n)
+    var = image_variance(sums.s[:, :, 0, :], sums.s2[:, :, 0, :], n, sums.b, sums.sizes)
     comps = {c: mean[:, :, i + 1, :] for i, c in enumerate(COMPONENTS[:3])}
-    return ImageResult(name, mean[:, :, 0, :], err[:, :, 0, :] ** 2, n, comps)
+    return ImageResult(name, mean[:, :, 0, :], var, n, comps)
 
 
-def radiometer_result(r, medium: str, s: np.ndarray, s2: np.ndarray, done: int,
-                      batch=None) -> RadiometerResult:
-    """A radiometer's result from its sums (nbins, components + 1, nbands) over ``done``
-    samples; ``batch``: [sum, sum of squares, count] of the hybrid integrator's pass means."""
-    nbins = s.shape[0]
-    counts = _bin_counts(done, nbins)[:, None, None]
-    mean, err = _mean_stderr(s, s2, counts)
-    if batch is not None:
-        bs, bs2, bn = batch
-        k = np.maximum(bn, 2.0)
-        var = np.maximum(0.0, bs2 - bs * bs / k) / (k - 1.0)
-        err = np.where(bn >= 4, np.maximum(err, np.sqrt(var / k)), err)
+def radiometer_result(r, medium: str, rounds: list[RadiometerSums]) -> RadiometerResult:
+    """A radiometer's result from the sums of its rounds (one for a plain render)."""
+    ests = [x.estimate() for x in rounds]
+    est = ests[0] if len(ests) == 1 else combine_rounds(ests, [e["samples"] for e in ests])
+    mean, err = est["mean"], est["stderr"]
     bins = (r.polar_bins, r.azimuth_bins) if r.quantity == "radiance_distribution" else None
     comps = {c: (mean[:, i + 1, :], err[:, i + 1, :]) for i, c in enumerate(COMPONENTS)}
     return RadiometerResult(r.name, r.quantity, np.asarray(r.position, float), medium,
-                            mean[:, 0, :], err[:, 0, :], done, bins, comps)
-
-
-def add_pass(sums, batch, g, s, s2, n: int) -> None:
-    """Adds one pass of n samples (sums s, s2) to a sensor's [sum, sum of squares] in band
-    group g and, when ``batch`` ([sum, sum of squares, count] of the pass means) is given, its
-    mean to the batch means. Renderer.run and the distributed merge both add passes here, in
-    the same order, so that their results agree bit for bit."""
-    if batch is not None:
-        pm = s / (n / s.shape[0])
-        batch[0][..., g] += pm
-        batch[1][..., g] += pm * pm
-        batch[2][g] += 1
-    sums[0][..., g] += s
-    sums[1][..., g] += s2
+                            mean[:, 0, :], err[:, 0, :], est["samples"], bins, comps,
+                            reliable=est["reliable"], notes=list(est["notes"]), vov=est["vov"])
 
 
 class Renderer:
@@ -309,8 +341,8 @@ class Renderer:
             if camera not in self._cam_sums or not self._cam_done.get(camera):
                 return None
             n = self._cam_done[camera]
-            s, s2 = (a.copy() for a in self._cam_sums[camera])
-        return image_result(camera, s, s2, n)
+            sums = self._cam_sums[camera].copy()
+        return image_result(camera, sums, n)
 
     def _camera_passes(self) -> list[tuple[int, int]]:
         return camera_passes(self.samples)
@@ -324,13 +356,14 @@ class Renderer:
         groups = band_groups(nb)
         threads = self.threads or (os.cpu_count() or 1)
         hybrid = self.integrator == "hybrid"
+        beams = uses_beams(scene, hybrid)
         result = RenderResult(scene.name, list(scene.bands))
-        cam_sums = self._cam_sums = {c.name: [np.zeros((c.resolution[1], c.resolution[0], nc, nb))
-                                              for _ in range(2)] for c in scene.cameras}
+        cam_sums = self._cam_sums = {c.name: CameraSums((c.resolution[1], c.resolution[0], nc, nb), beams)
+                                     for c in scene.cameras}
         cam_done = self._cam_done = {c.name: 0 for c in scene.cameras}
-        rad_sums, rad_done, rad_batch = [], [0] * len(radiometers), []
         cam_passes = self._camera_passes()
-        rad_passes = radiometer_passes(self.radiometer_samples, hybrid)
+        rad_passes = radiometer_passes(self.radiometer_samples, beams)
+        rad_sums: list[RadiometerSums] = []
         total_work = len(groups) * (sum(c.resolution[0] * c.resolution[1] * self.samples for c in scene.cameras)
                                     + len(radiometers) * self.radiometer_samples)
         done_work = 0
@@ -349,37 +382,20 @@ class Renderer:
             for k in counters:
                 counters[k] += int(c[k])
 
-        def new_pass(core, gi, key, i, n):
-            """Before every pass of the hybrid integrator: beams for direction i of n drawn in
-            the sun's disk (deterministic per seed, band group and sensor)."""
-            if not hybrid:
+        def new_pass(core, key, i, n, paired):
+            """Before a pass of the hybrid integrator: beams for its sun direction."""
+            if not beams:
                 return
             tb = time.perf_counter()
-            build_pass_beams(core, scene, self.seed, gi, key, i, n, self.threads)
+            build_pass_beams(core, scene, self.seed, key, i, n, self.threads, paired)
             beam_stats["build_s"] += time.perf_counter() - tb
             beam_stats["passes"] += 1
             beam_stats["prisms"] = max(beam_stats["prisms"], core.beam_count)
 
-        def run_passes(core, gi, g, key, passes, render_pass, sums, done, done_key, work_per_sample,
-                       label, total, batch=None):
-            """Render one sensor's passes into its sums; False when cancelled (the cancelled
-            pass is dropped). ``batch``: [sum, sum of squares, count] of the pass means."""
-            nonlocal done_work
-            for pi, (start, n) in enumerate(passes):
-                new_pass(core, gi, key, pi, len(passes))
-                s, s2, c = render_pass(start, n)
-                if core.cancelled:
-                    return False
-                with self._lock:
-                    add_pass(sums, batch, g, s, s2, n)
-                    if gi == 0:
-                        done[done_key] = start + n
-                    add_counts(c)
-                    done_work += work_per_sample * n
-                    self.progress = done_work / total_work
-                if progress:
-                    progress(done_work / total_work, f"{label}: {start + n}/{total} samples")
-            return True
+        def report(label):
+            self.progress = done_work / total_work
+            if progress:
+                progress(done_work / total_work, label)
 
         cancelled = False
         for gi, g in enumerate(groups):
@@ -393,46 +409,54 @@ class Renderer:
                 media[ri] = "air" if m < 0 else scene.water[m].name
                 if gi == 0:
                     nbins = core.radiometer_bins(ri)
-                    rad_sums.append([np.zeros((nbins, nc, nb)), np.zeros((nbins, nc, nb))])
+                    rad_sums.append(RadiometerSums((nbins, nc, nb), beams, len(rad_passes) // 2))
+            # Cameras: every pass with beams of its own (an independent draw).
             for ci, cam in enumerate(scene.cameras):
-                ok = run_passes(core, gi, g, (0, ci), cam_passes, lambda st, n, ci=ci, cam=cam: core.render_camera(
-                                    ci, st, n, self.threads, out((cam.resolution[1], cam.resolution[0], nc, g.stop - g.start))),
-                                cam_sums[cam.name], cam_done, cam.name,
-                                cam.resolution[0] * cam.resolution[1], f"camera {cam.name}", self.samples)
-                if not ok:
-                    cancelled = True
-                    break
-            # The hybrid integrator builds its beams once per pass (a sun direction in the disk,
-            # and with a rough ocean other sub-pixel facets): that variation between passes is
-            # not in the per-sample variance, so the standard error also comes from the spread
-            # of the pass means (batch means), the larger one kept.
-            batch_means = hybrid
-            for ri, r in enumerate(radiometers):
+                shape = (cam.resolution[1], cam.resolution[0], nc, g.stop - g.start)
+                for pi, (start, n) in enumerate(cam_passes):
+                    new_pass(core, (0, ci), pi, len(cam_passes), False)
+                    s, s2, c = core.render_camera(ci, start, n, self.threads, out(shape))
+                    if core.cancelled:
+                        cancelled = True
+                        break
+                    with self._lock:
+                        cam_sums[cam.name].add_pass(g, s, s2, n, gi == 0)
+                        if gi == 0:
+                            cam_done[cam.name] = start + n
+                        add_counts(c)
+                        done_work += cam.resolution[0] * cam.resolution[1] * n
+                    report(f"camera {cam.name}: {start + n}/{self.samples} samples")
                 if cancelled:
                     break
-                if batch_means and len(rad_batch) <= ri:
-                    shape = rad_sums[ri][0].shape
-                    rad_batch.append([np.zeros(shape), np.zeros(shape), np.zeros(nb)])
-                ok = run_passes(core, gi, g, (1, ri), rad_passes, lambda st, n, ri=ri: core.render_radiometer(
-                                    ri, st, n, self.threads, out(rad_sums[ri][0].shape[:-1] + (g.stop - g.start,))),
-                                rad_sums[ri], rad_done, ri, 1, f"radiometer {r.name}", self.radiometer_samples,
-                                rad_batch[ri] if batch_means else None)
-                if not ok:
-                    cancelled = True
+            # Radiometers: pass after pass, all of them with the same beams (one build per pass
+            # serves them all); the passes are paired strata of the sun's disk.
+            for pi, (start, n) in enumerate(rad_passes):
+                if cancelled or not radiometers:
                     break
+                new_pass(core, (1,), pi, len(rad_passes), True)
+                for ri in range(len(radiometers)):
+                    shape = rad_sums[ri].s.shape[:-1] + (g.stop - g.start,)
+                    mom = np.empty((shape[0], 3, shape[2]))
+                    s, s2, c = core.render_radiometer(ri, start, n, self.threads, out(shape), mom)
+                    if core.cancelled:
+                        cancelled = True
+                        break
+                    with self._lock:
+                        rad_sums[ri].add_pass(g, pi, start, n, s, s2, mom)
+                        add_counts(c)
+                        done_work += n
+                report(f"radiometers: {start + n}/{self.radiometer_samples} samples")
             if cancelled:
                 break
         self._core = None
         elapsed = time.perf_counter() - t0
 
         for cam in scene.cameras:
-            result.images[cam.name] = image_result(cam.name, *cam_sums[cam.name], cam_done[cam.name])
+            result.images[cam.name] = image_result(cam.name, cam_sums[cam.name], cam_done[cam.name])
         for ri, r in enumerate(radiometers):
             if ri >= len(rad_sums):
                 break
-            result.radiometers.append(radiometer_result(
-                r, media[ri] or "air", *rad_sums[ri], rad_done[ri],
-                rad_batch[ri] if ri < len(rad_batch) else None))
+            result.radiometers.append(radiometer_result(r, media[ri] or "air", [rad_sums[ri]]))
         result.cancelled = cancelled
         result.stats = dict(counters, time_s=elapsed, threads=threads, seed=self.seed,
                             samples=self.samples, radiometer_samples=self.radiometer_samples,

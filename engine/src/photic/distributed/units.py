@@ -30,9 +30,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..compile import band_groups, compile_scene
-from ..render import (COMPONENTS, ImageResult, RenderResult, _mean_stderr, add_pass,
-                      build_pass_beams, camera_passes, image_result, radiometer_passes,
-                      radiometer_result)
+from ..estimates import CameraSums, RadiometerSums
+from ..render import (COMPONENTS, ImageResult, RenderResult, _mean_stderr, build_pass_beams,
+                      camera_passes, image_result, radiometer_passes, radiometer_result,
+                      uses_beams)
 from .job import Item, Job
 
 NC = len(COMPONENTS) + 1      # the core's layout: total, then the components
@@ -82,7 +83,7 @@ def plan_round(item: Item, job: Job, rnd: int) -> list[Unit]:
     scene = item.scene
     hybrid = item.integrator == "hybrid"
     ngroups = len(band_groups(len(scene.bands)))
-    rad_np = len(radiometer_passes(item.radiometer_samples, hybrid))
+    rad_np = len(radiometer_passes(item.radiometer_samples, uses_beams(scene, hybrid)))
     cam_np = len(camera_passes(item.samples))
     for g in range(ngroups):
         if rnd == 0:
@@ -102,18 +103,19 @@ def plan_round(item: Item, job: Job, rnd: int) -> list[Unit]:
 def unit_spec(item: Item, job: Job, unit: Unit, threads: int) -> dict:
     """Everything a worker needs besides the scene (plain values: cheap to ship)."""
     hybrid = item.integrator == "hybrid"
+    beams = uses_beams(item.scene, hybrid)
     if unit.kind == "camera":
         passes = camera_passes(item.samples)
         cam = item.scene.cameras[unit.sensor]
         rect = tile_rects(*cam.resolution, job.tile)[unit.tile] if unit.tile >= 0 else None
     else:
-        passes = radiometer_passes(item.radiometer_samples, hybrid)
+        passes = radiometer_passes(item.radiometer_samples, beams)
         rect = None
     return {"unit": unit.id, "fingerprint": item.fingerprint, "kind": unit.kind,
             "sensor": unit.sensor, "group": unit.group, "round": unit.round,
             "seed": round_seed(item.seed, unit.round), "rect": rect, "tile": unit.tile,
             "first": unit.first, "passes": passes[unit.first:unit.last], "npasses": len(passes),
-            "hybrid": hybrid, "cone": item.forward_cone_deg, "threads": int(threads)}
+            "hybrid": hybrid, "beams": beams, "cone": item.forward_cone_deg, "threads": int(threads)}
 
 
 # --- on the worker -------------------------------------------------------------------------
@@ -190,25 +192,29 @@ def _render_unit(spec: dict, scene, core, t0: float, c0: float) -> dict:
     counters = {"segments": 0, "shadow_rays": 0, "paths": 0}
     camera = spec["kind"] == "camera"
     ci = 0 if camera and spec["rect"] is not None else spec["sensor"]  # a tile scene has one camera
-    sensor_key = (0, spec["sensor"]) if camera else (1, spec["sensor"])
-    sums = per_pass_s = per_pass_s2 = None
+    # The beams of a pass are those Renderer.run builds: per camera, and one set shared by all
+    # the radiometers (paired strata of the sun's disk).
+    sensor_key = (0, spec["sensor"]) if camera else (1,)
+    sums = per_pass = None
     for k, (start, n) in enumerate(spec["passes"]):
-        if spec["hybrid"]:
-            build_pass_beams(core, scene, spec["seed"], spec["group"], sensor_key, spec["first"] + k,
-                             spec["npasses"], threads)
+        if spec.get("beams", spec["hybrid"]):
+            build_pass_beams(core, scene, spec["seed"], sensor_key, spec["first"] + k, spec["npasses"],
+                             threads, paired=not camera)
         if camera:
             s, s2, c = core.render_camera(ci, start, n, threads)
             if sums is None:
                 sums = [np.zeros(s.shape[:2] + (CAMERA_COMPONENTS,) + s.shape[3:]),
-                        np.zeros(s.shape[:2] + (1,) + s.shape[3:])]
+                        np.zeros(s.shape[:2] + (1,) + s.shape[3:]),
+                        np.zeros(s.shape[:2] + s.shape[3:])]
             sums[0] += s[:, :, :CAMERA_COMPONENTS]
             sums[1] += s2[:, :, :1]   # the variance is of the total only
+            sums[2] += s[:, :, 0] ** 2 / n   # its spread between passes (photic.estimates)
         else:
-            s, s2, c = core.render_radiometer(spec["sensor"], start, n, threads)
-            if per_pass_s is None:
-                per_pass_s = np.zeros((len(spec["passes"]),) + s.shape)
-                per_pass_s2 = np.zeros_like(per_pass_s)
-            per_pass_s[k], per_pass_s2[k] = s, s2
+            mom = np.empty((core.radiometer_bins(spec["sensor"]), 3, core.nbands))
+            s, s2, c = core.render_radiometer(spec["sensor"], start, n, threads, None, mom)
+            if per_pass is None:
+                per_pass = [np.zeros((len(spec["passes"]),) + a.shape) for a in (s, s2, mom)]
+            per_pass[0][k], per_pass[1][k], per_pass[2][k] = s, s2, mom
         for name in counters:
             counters[name] += int(c[name])
     meta = {"unit": spec["unit"], "fingerprint": spec["fingerprint"], "kind": spec["kind"],
@@ -216,10 +222,10 @@ def _render_unit(spec: dict, scene, core, t0: float, c0: float) -> dict:
             "time_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0,
             "host": socket.gethostname(), "pid": os.getpid()}
     if camera:
-        arrays = {"s": sums[0], "s2": sums[1]}
+        arrays = {"s": sums[0], "s2": sums[1], "b": sums[2]}
     else:
         meta["medium"] = int(core.radiometer_medium(spec["sensor"]))
-        arrays = {"s": per_pass_s, "s2": per_pass_s2}
+        arrays = {"s": per_pass[0], "s2": per_pass[1], "m": per_pass[2]}
     return {"meta": meta, "arrays": arrays}
 
 
@@ -238,12 +244,13 @@ class ItemMerger:
         self.groups = band_groups(len(scene.bands))
         nb = len(scene.bands)
         self.nb = nb
-        self.cams = {ci: [np.zeros((c.resolution[1], c.resolution[0], NC, nb)) for _ in range(2)]
+        beams = uses_beams(scene, item.integrator == "hybrid")
+        self.beams = beams
+        self.cams = {ci: CameraSums((c.resolution[1], c.resolution[0], NC, nb), beams)
                      for ci, c in enumerate(scene.cameras)}
         self.cam_samples = {ci: 0 for ci in self.cams}
-        self.rads: dict[int, list] = {}
-        self.rad_batch: dict[int, list] = {}
-        self.rad_samples: dict[int, int] = {}
+        self.strata = len(radiometer_passes(item.radiometer_samples, beams)) // 2
+        self.rads: dict[int, list[RadiometerSums]] = {}   # per radiometer, one per round
         self.media: dict[int, int] = {}
         self.counters = {"segments": 0, "shadow_rays": 0, "paths": 0}
         self.unit_time_s = 0.0
@@ -254,32 +261,30 @@ class ItemMerger:
     def add(self, unit: Unit, result: dict, job: Job) -> None:
         meta, arrays = result["meta"], result["arrays"]
         g = self.groups[unit.group]
-        hybrid = self.item.integrator == "hybrid"
         if unit.kind == "camera":
             cam = self.item.scene.cameras[unit.sensor]
             x0, y0, w, h = (tile_rects(*cam.resolution, job.tile)[unit.tile] if unit.tile >= 0
                             else (0, 0, *cam.resolution))
-            s, s2 = self.cams[unit.sensor]
-            s[y0:y0 + h, x0:x0 + w, :CAMERA_COMPONENTS, g] += arrays["s"]
-            s2[y0:y0 + h, x0:x0 + w, :1, g] += arrays["s2"]
+            sums = self.cams[unit.sensor]
+            sums.s[y0:y0 + h, x0:x0 + w, :CAMERA_COMPONENTS, g] += arrays["s"]
+            sums.s2[y0:y0 + h, x0:x0 + w, :1, g] += arrays["s2"]
+            if sums.b is not None and "b" in arrays:
+                sums.b[y0:y0 + h, x0:x0 + w, g] += arrays["b"]
             if unit.group == 0 and unit.tile <= 0:
                 self.cam_samples[unit.sensor] += sum(n for _, n in meta["passes"])
+                sums.sizes.extend(int(n) for _, n in meta["passes"])
         else:
             ri = unit.sensor
-            ps, ps2 = arrays["s"], arrays["s2"]
-            if ri not in self.rads:
-                shape = ps.shape[1:2] + (NC, self.nb)
-                self.rads[ri] = [np.zeros(shape), np.zeros(shape)]
-                self.rad_batch[ri] = [np.zeros(shape), np.zeros(shape), np.zeros(self.nb)]
-                self.rad_samples[ri] = 0
-            sums, batch = self.rads[ri], self.rad_batch[ri]
-            for k, (_, n) in enumerate(meta["passes"]):
-                # with batch means of the passes for the hybrid integrator, as Renderer.run
-                add_pass(sums, batch if hybrid else None, g, ps[k], ps2[k], n)
-                if unit.group == 0:
-                    self.rad_samples[ri] += n
+            ps, ps2, pm = arrays["s"], arrays["s2"], arrays.get("m")
+            rounds = self.rads.setdefault(ri, [])
+            while len(rounds) <= unit.round:
+                rounds.append(RadiometerSums(ps.shape[1:2] + (NC, self.nb), self.beams, self.strata))
+            sums = rounds[unit.round]
+            for k, (start, n) in enumerate(meta["passes"]):
+                # in pass order, as Renderer.run adds them
+                sums.add_pass(g, unit.first + k, start, n, ps[k], ps2[k], None if pm is None else pm[k])
             self.media[ri] = int(meta["medium"])
-        if hybrid:
+        if self.beams:
             self.beam_passes += len(meta["passes"])
         for name in self.counters:
             self.counters[name] += int(meta["counters"][name])
@@ -291,15 +296,13 @@ class ItemMerger:
         item, scene = self.item, self.item.scene
         res = RenderResult(scene.name, list(scene.bands))
         for ci, cam in enumerate(scene.cameras):
-            res.images[cam.name] = image_result(cam.name, *self.cams[ci], self.cam_samples[ci])
-        hybrid = item.integrator == "hybrid"
+            res.images[cam.name] = image_result(cam.name, self.cams[ci], self.cam_samples[ci])
         for ri, r in enumerate(scene.all_radiometers()):
             if ri not in self.rads:
                 continue
             m = self.media.get(ri, -1)
             medium = "air" if m < 0 else scene.water[m].name
-            res.radiometers.append(radiometer_result(r, medium, *self.rads[ri], self.rad_samples[ri],
-                                                     self.rad_batch[ri] if hybrid else None))
+            res.radiometers.append(radiometer_result(r, medium, [x for x in self.rads[ri] if x.samples.max() > 0]))
         t = self.unit_time_s
         res.stats = dict(self.counters, time_s=t, threads=0, seed=item.seed, samples=item.samples,
                          radiometer_samples=item.radiometer_samples * max(1, self.rounds),

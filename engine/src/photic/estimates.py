@@ -1,0 +1,240 @@
+"""Monte Carlo estimates and their standard errors, from the sums a render accumulates.
+
+Samples within one pass are independent, but the hybrid integrator builds its beams once per
+pass (for one sun direction drawn in the disk, and below a rough sea one sub-pixel facet), so
+samples of one pass share that draw: the per-sample variance misses the spread between passes.
+Each sensor's error is therefore estimated from how its passes are drawn:
+
+- **Radiometers (hybrid, with a sun): paired strata.** Passes come in pairs; the pair k draws
+  its two sun directions independently in the k-th of K equal parts of the disk (strata). The
+  estimate is the mean of the pass means (each stratum weighs 1/K), and its variance is
+  estimated without bias from the pairs' differences, sum_k (y_k1 - y_k2)^2 / (4 K^2)
+  (Cochran 1977, sec. 5A.12: two units per stratum). It holds both the samples' own noise and
+  the spread between directions, and keeps most of what stratifying the disk gains. The
+  reported error is the larger of it and the per-sample one (which it must exceed but for
+  noise; with few pairs the per-sample one is the steadier).
+- **Cameras (hybrid): independent passes of unequal sizes.** Each pass draws its direction
+  independently; per pixel the one-way random-effects analysis of variance (Searle, Casella &
+  McCulloch 1992, ch. 3) splits the spread into within-pass and between-pass parts:
+  var(mean) = s_w^2 / N + s_b^2 sum(n_p^2) / N^2.
+- **Everything else** (path tracing, no sun): independent samples, var(mean) = s^2 / N.
+
+An error is flagged as not to be trusted when it rests on too little (fewer than MIN_STRATA
+complete pairs; an image pixel with fewer than 2 samples has no variance at all: inf) or when
+the samples' distribution has heavy tails: the relative variance of the variance,
+VOV = sum d^4 / (sum d^2)^2 - 1/N (d: deviations from the mean), above VOV_LIMIT (the limit
+MCNP uses, X-5 Monte Carlo Team 2003, vol. I, sec. 2.VI.D), as in the exact mode (forward
+cone 0) where rare paths scatter twice in the phase function's forward peak.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+MIN_STRATA = 4      # complete pairs of passes below which a paired error is not trusted
+VOV_LIMIT = 0.1     # relative variance of the variance above which tails are too heavy
+
+
+def mean_stderr(s: np.ndarray, s2: np.ndarray, n) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and standard error of the mean of independent samples from their sums."""
+    n = np.asarray(n, dtype=np.float64)
+    nn = np.maximum(n, 1.0)
+    mean = s / nn
+    var = np.maximum(s2 / nn - mean * mean, 0.0) * nn / np.maximum(nn - 1.0, 1.0)
+    return mean, np.sqrt(var / nn)
+
+
+def merge_moments(a: tuple, b: tuple) -> tuple:
+    """(n, mean, M2, M3, M4) of two sets merged (central sums of powers; Pebay 2008)."""
+    na, ma, a2, a3, a4 = a
+    nb, mb, b2, b3, b4 = b
+    nn = na + nb
+    safe = np.where(nn > 0, nn, 1.0)
+    d = mb - ma
+    d2 = d * d
+    m4 = (a4 + b4 + d2 * d2 * na * nb * (na * na - na * nb + nb * nb) / safe ** 3
+          + 6.0 * d2 * (na * na * b2 + nb * nb * a2) / safe ** 2 + 4.0 * d * (na * b3 - nb * a3) / safe)
+    m3 = a3 + b3 + d2 * d * na * nb * (na - nb) / safe ** 2 + 3.0 * d * (na * b2 - nb * a2) / safe
+    m2 = a2 + b2 + d2 * na * nb / safe
+    mean = ma + d * nb / safe
+    return nn, mean, m2, m3, m4
+
+
+def variance_of_variance(n, m2, m4) -> np.ndarray:
+    """VOV = M4 / M2^2 - 1/N: the relative variance of the estimated variance (0 where the
+    samples do not vary)."""
+    n = np.asarray(n, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v = np.where(m2 > 0, m4 / np.where(m2 > 0, m2, 1.0) ** 2 - 1.0 / np.maximum(n, 1.0), 0.0)
+    return np.maximum(v, 0.0)
+
+
+def bin_counts(total: int, nbins: int) -> np.ndarray:
+    """Samples per bin of [0, total) when sample i goes to bin i % nbins."""
+    counts = np.full(nbins, total // nbins, dtype=np.int64)
+    counts[: total % nbins] += 1
+    return counts
+
+
+def pass_bin_counts(start: int, n: int, nbins: int) -> np.ndarray:
+    """Samples per bin of the pass [start, start + n)."""
+    return bin_counts(start + n, nbins) - bin_counts(start, nbins)
+
+
+class RadiometerSums:
+    """What one radiometer's passes add up to in one round of one render.
+
+    Arrays are (bins, components + 1, bands) like the core's; the band axis is filled band
+    group by band group (``g``: a slice of bands). ``paired``: the passes are paired strata
+    (``strata`` pairs: pass 2k and 2k + 1 in stratum k).
+    """
+
+    def __init__(self, shape: tuple, paired: bool, strata: int):
+        nbins, _, nb = shape
+        self.paired, self.strata = paired, strata
+        self.s, self.s2 = np.zeros(shape), np.zeros(shape)
+        self.samples = np.zeros(nb, dtype=np.int64)         # per band (its group's passes)
+        # the total's moments over all samples, per bin and band: n, mean, M2, M3, M4
+        self.mom = tuple(np.zeros((nbins, nb)) for _ in range(5))
+        self.has_moments = np.ones(nb, dtype=bool)
+        # paired strata: sum of the pairs' means, of their squared differences, the pending
+        # first pass of the open pair, and the complete pairs (per band)
+        self.pair_mean, self.pair_sq = np.zeros(shape), np.zeros(shape)
+        self.pending = np.zeros(shape)
+        self.pairs = np.zeros(nb, dtype=np.int64)
+        # sum over passes of (pass sum)^2 / pass samples, per bin: the within-pass variance
+        self.b = np.zeros(shape)
+        self.empty_bins = np.zeros(nbins, dtype=bool)       # a pass without samples in the bin
+
+    def add_pass(self, g: slice, index: int, start: int, n: int, s: np.ndarray, s2: np.ndarray,
+                 moments: np.ndarray | None) -> None:
+        """Pass ``index`` (samples [start, start + n)) of band group ``g``: its sums s, s2 and
+        the total's central moments (bins, 3, bands of g), or None when not measured."""
+        self.s[..., g] += s
+        self.s2[..., g] += s2
+        self.samples[g] += n
+        nbins = s.shape[0]
+        counts = pass_bin_counts(start, n, nbins).astype(np.float64)
+        if moments is None:
+            self.has_moments[g] = False
+        else:
+            c = np.broadcast_to(counts[:, None], s.shape[::2])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                mean = np.where(c > 0, s[:, 0, :] / np.where(c > 0, c, 1.0), 0.0)
+            cur = tuple(m[..., g] for m in self.mom)
+            merged = merge_moments(cur, (c, mean, moments[:, 0], moments[:, 1], moments[:, 2]))
+            for m, v in zip(self.mom, merged):
+                m[..., g] = v
+        if self.paired:
+            self.empty_bins |= counts == 0
+            with np.errstate(divide="ignore", invalid="ignore"):
+                y = np.where(counts[:, None, None] > 0, s / np.maximum(counts, 1.0)[:, None, None], 0.0)
+            self.b[..., g] += s * y
+            if index % 2 == 0:
+                self.pending[..., g] = y
+            else:
+                first = self.pending[..., g]
+                self.pair_mean[..., g] += 0.5 * (first + y)
+                self.pair_sq[..., g] += (first - y) ** 2
+                self.pairs[g] += 1
+
+    def estimate(self) -> dict:
+        """mean, stderr (bins, components + 1, bands); reliable (bins, bands); notes (list)."""
+        nbins = self.s.shape[0]
+        counts = np.stack([bin_counts(int(t), nbins) for t in self.samples], axis=-1)[:, None, :]
+        mean, err = mean_stderr(self.s, self.s2, counts)
+        reliable = np.ones((nbins, self.s.shape[2]), dtype=bool)
+        notes = []
+        if self.paired:
+            k = self.pairs.astype(np.float64)
+            complete = bool(np.all(self.pairs == self.strata)) and self.strata > 0
+            if complete:
+                # The per-sample floor: the pooled within-pass variance over N (a lower bound
+                # of the pairs' estimate's expectation; steadier where few pairs are).
+                n_all = counts.astype(np.float64)
+                passes = 2.0 * k
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    within = np.where(n_all > passes, np.maximum(self.s2 - self.b, 0.0) /
+                                      np.maximum(n_all - passes, 1.0), 0.0) / np.maximum(n_all, 1.0)
+                mean = self.pair_mean / k
+                err = np.sqrt(np.maximum(self.pair_sq / (4.0 * k * k), within))
+            else:
+                # A render stopped before its last pair: the strata done cover part of the
+                # disk only; the per-sample error is all there is.
+                notes.append("incomplete passes")
+                reliable[:] = False
+            if np.any(self.pairs < MIN_STRATA):
+                notes.append("too few passes")
+                reliable[:, self.pairs < MIN_STRATA] = False
+            if np.any(self.empty_bins):
+                notes.append("bins without samples in a pass")
+                reliable[self.empty_bins] = False
+        n, _, m2, _, m4 = self.mom
+        vov = variance_of_variance(n, m2, m4)
+        heavy = (vov > VOV_LIMIT) & self.has_moments[None, :]
+        if np.any(heavy):
+            notes.append("heavy tails")
+            reliable &= ~heavy
+        return {"mean": mean, "stderr": err, "reliable": reliable, "vov": vov, "notes": notes,
+                "samples": int(self.samples.min()) if self.samples.size else 0}
+
+
+def combine_rounds(estimates: list[dict], weights: list[float]) -> dict:
+    """Independent estimates (rounds of one render, each with its own seed) combined with
+    weights (their sample counts): means weighted, variances by the squared weights."""
+    w = np.asarray(weights, dtype=np.float64)
+    w = w / w.sum()
+    mean = sum(wi * e["mean"] for wi, e in zip(w, estimates))
+    err = np.sqrt(sum((wi * e["stderr"]) ** 2 for wi, e in zip(w, estimates)))
+    reliable = np.logical_and.reduce([e["reliable"] for e in estimates])
+    notes = sorted({n for e in estimates for n in e["notes"]})
+    vov = np.maximum.reduce([e["vov"] for e in estimates])
+    return {"mean": mean, "stderr": err, "reliable": reliable, "vov": vov, "notes": notes,
+            "samples": sum(e["samples"] for e in estimates)}
+
+
+class CameraSums:
+    """Per-pixel sums of one camera: (H, W, components + 1, bands) s and s2, and for the
+    between-pass analysis b = sum over passes of (pass sum of the total)^2 / pass size."""
+
+    def __init__(self, shape: tuple, between: bool):
+        self.s, self.s2 = np.zeros(shape), np.zeros(shape)
+        self.b = np.zeros(shape[:2] + shape[3:]) if between else None
+        self.sizes: list[int] = []     # pass sizes (band group 0)
+
+    def copy(self) -> "CameraSums":
+        c = CameraSums(self.s.shape, self.b is not None)
+        c.s, c.s2 = self.s.copy(), self.s2.copy()
+        c.b = None if self.b is None else self.b.copy()
+        c.sizes = list(self.sizes)
+        return c
+
+    def add_pass(self, g: slice, s: np.ndarray, s2: np.ndarray, n: int, first_group: bool) -> None:
+        self.s[..., g] += s
+        self.s2[..., g] += s2
+        if self.b is not None:
+            self.b[..., g] += s[:, :, 0, :] ** 2 / n
+        if first_group:
+            self.sizes.append(int(n))
+
+
+def image_variance(s: np.ndarray, s2: np.ndarray, n: int, b: np.ndarray | None = None,
+                   sizes: list[int] | None = None) -> np.ndarray:
+    """Variance of each pixel's mean of its total (H, W, bands); inf where it cannot be
+    estimated (fewer than 2 samples).
+
+    s, s2: the total's sums (H, W, bands); with b and the pass sizes (passes of independent
+    beams), the random-effects estimate of within- and between-pass variance."""
+    if n < 2:
+        return np.full(s.shape, np.inf)
+    mean, err = mean_stderr(s, s2, n)
+    plain = err * err
+    if b is None or sizes is None or len(sizes) < 2 or sum(sizes) != n:
+        return plain
+    N, P = float(n), len(sizes)
+    sum_n2 = float(sum(x * x for x in sizes))
+    if N <= P:  # every pass one sample: they are independent, the plain estimate holds
+        return plain
+    within = np.maximum(s2 - b, 0.0) / (N - P)
+    between_ss = np.maximum(b - s * s / N, 0.0)
+    sb2 = (between_ss - (P - 1) * within) / (N - sum_n2 / N)
+    return within / N + np.maximum(sb2, 0.0) * sum_n2 / (N * N)
