@@ -65,15 +65,14 @@ def test_radiometer_error_bars_are_honest_elsewhere(surface, zenith, samples):
             assert 0.7 <= ratio <= 1.5, (name, ratio)
 
 
-def test_heavy_tails_of_the_exact_mode_are_flagged():
-    """Forward cone 0 (the full phase function): two scatterings in the forward peak make
-    rare, very bright samples. Wherever the spread exceeds 1.5 reported errors, most seeds
-    say that their error is not to be trusted."""
-    ratios = radiometer_ratios("flat", 30.0, 0.0, 2048, ["Ed_1", "Eo_1"])
+def test_exact_mode_error_bars_are_honest():
+    """Forward cone 0 (the full phase function): paths heading towards the refracted sun
+    multiply two forward peaks; beam-guided continuations (photic core, kBeamGuide) keep
+    those samples in proportion, so Ed's error bars are honest in the exact mode too (spread /
+    SE was 1.6-2.6 at 1,024-16,384 samples before)."""
+    ratios = radiometer_ratios("flat", 30.0, 0.0, 16384, ["Ed_1", "Ed_5"])
     for name, (ratio, flagged) in ratios.items():
-        if ratio > 1.5:
-            assert flagged >= 8, (name, ratio, flagged)
-    assert any(f >= 8 for _, f in ratios.values())
+        assert 0.6 <= ratio <= 1.6, (name, ratio, flagged)
 
 
 def test_pixel_error_bars_are_honest_under_waves():

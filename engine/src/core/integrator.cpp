@@ -390,20 +390,34 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 double u1 = sc.f + rng.uniform() * (1.0 - sc.f), u2 = rng.uniform();
                 Vec3 nd = phases[sc.phase].sample_direction(d, u1, u2);
                 Spectrum beta_pre = beta;
+                Vec3 bd;
+                const bool beams_here = hybrid && has_beams() && strongest_beam(o, medium, &bd);
+                // Beam-guided continuation (exact mode, forward cone 0): a fraction kBeamGuide
+                // of the paths here go on in a direction drawn from the phase function around
+                // the beam's reverse instead, weighted by the mixture's pdf (at most 1 /
+                // (1 - kBeamGuide) times the phase function's weight). A path then arrives near
+                // the refracted sun's reverse as often as its forward peak sends light there,
+                // so the next vertex's beam term, which multiplies two forward peaks, no longer
+                // makes rare huge samples (the exact mode's heavy tails).
+                const bool guide = beams_here && cone_x == 0.0;
+                if (guide && rng.uniform() < kBeamGuide) nd = sample_beam_direction(w, bd, rng);
                 double pa = 0.0;
-                if (nc > 1 || (hybrid && has_beams())) {
+                if (nc > 1 || beams_here) {
                     eval_components(nd);
                     pa = pdf_a();
                 }
-                if (nc > 1)
-                    for (int k = 0; k < nb; ++k) beta.v[k] *= pa > 0 ? band_phase(k) / pa : 0.0;
-                Vec3 bd;
-                if (hybrid && has_beams() && strongest_beam(o, medium, &bd)) {
+                auto mixture = [&](double pa_v, double pb_v) {  // the continuation's pdf
+                    return guide ? (1.0 - kBeamGuide) * pa_v + kBeamGuide * pb_v : pa_v;
+                };
+                const double pmix = beams_here ? mixture(pa, beam_direction_pdf(w, bd, nd)) : pa;
+                if (nc > 1 || guide)
+                    for (int k = 0; k < nb; ++k) beta.v[k] *= pmix > 0 ? band_phase(k) / pmix : 0.0;
+                if (beams_here) {
                     // Beam-scattering MIS: the next segment's beam term (directions from the
-                    // phase function here) is weighted against a second direction drawn from
+                    // continuation's pdf here) is weighted against a second direction drawn from
                     // the phase function around the beam (the forward peak at the next point).
                     double pb = beam_direction_pdf(w, bd, nd);
-                    bv_weight = pa / (pa + pb);
+                    bv_weight = pmix / (pmix + pb);
                     Vec3 wb = sample_beam_direction(w, bd, rng);
                     eval_components(wb);
                     double pa_b = pdf_a(), pb_b = beam_direction_pdf(w, bd, wb);
@@ -412,9 +426,9 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                         c.segments++;
                         Spectrum I;
                         beam_scatter_along(o, wb, hb.valid ? hb.t : kInf, medium, rng, &I);
+                        const double den = mixture(pa_b, pb_b) + pb_b;
                         for (int k = 0; k < nb; ++k)
-                            out.beam_volume.v[k] += beta_pre.v[k] * band_phase(k) * absorbed(w, k) *
-                                                    I.v[k] / (pa_b + pb_b);
+                            out.beam_volume.v[k] += beta_pre.v[k] * band_phase(k) * absorbed(w, k) * I.v[k] / den;
                     }
                 }
                 d = nd;
@@ -484,11 +498,21 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             double u1 = rng.uniform(), u2 = rng.uniform();
             Vec3 nd = cosine_hemisphere(n, u1, u2);
             Vec3 bd;
+            double scale = 1.0;  // the continuation's cosine lobe over its pdf (guided: <= 1/(1 - kBeamGuide))
             if (hybrid && medium >= 0 && has_beams() && strongest_beam(xo, medium, &bd)) {
-                // Beam-scattering MIS as at scattering vertices, with the cosine lobe here.
+                // Beam-scattering MIS as at scattering vertices, with the cosine lobe here, and
+                // in the exact mode the same beam-guided continuation (light reflected off the
+                // floor straight back towards the refracted sun then scatters in both peaks).
                 const Water& w = waters[medium];
+                const bool guide = cone_half_angle == 0.0;
+                if (guide && rng.uniform() < kBeamGuide) nd = sample_beam_direction(w, bd, rng);
+                auto mixture = [&](double pa_v, double pb_v) {
+                    return guide ? (1.0 - kBeamGuide) * pa_v + kBeamGuide * pb_v : pa_v;
+                };
                 double pa = std::max(0.0, dot(n, nd)) * kInvPi, pb = beam_direction_pdf(w, bd, nd);
-                bv_weight = pa / (pa + pb);
+                const double pm = mixture(pa, pb);
+                if (guide) scale = pm > 0.0 ? pa / pm : 0.0;
+                bv_weight = pm / (pm + pb);
                 Vec3 wb = sample_beam_direction(w, bd, rng);
                 double cb = dot(n, wb);
                 if (cb > 0.0) {
@@ -497,12 +521,14 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     c.segments++;
                     Spectrum I;
                     beam_scatter_along(xo, wb, hb.valid ? hb.t : kInf, medium, rng, &I);
+                    const double den = mixture(pa_b, pb_b) + pb_b;
                     for (int k = 0; k < nb; ++k)
-                        out.beam_volume.v[k] += beta.v[k] * m.reflectance.v[k] * cb * kInvPi * I.v[k] / (pa_b + pb_b);
+                        out.beam_volume.v[k] += beta.v[k] * m.reflectance.v[k] * cb * kInvPi * I.v[k] / den;
                 }
             }
+            if (!(dot(nd, n) > 0.0)) return out;  // a guided direction into the surface
             d = nd;
-            for (int k = 0; k < nb; ++k) beta.v[k] *= m.reflectance.v[k];
+            for (int k = 0; k < nb; ++k) beta.v[k] *= m.reflectance.v[k] * scale;
             o = xo;
         } else if (h.id == -3 && ocean_rough) {
             // The rough ocean surface: a microfacet BSDF around the geometric normal (which
@@ -726,12 +752,28 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
         // Beam-scattering MIS for the first segment: the sensor's own directions against
         // directions drawn from the phase function around the beam (looking towards the sun).
         const Water& wat = waters[r.medium];
-        double pa = response(w) / weight, pb = beam_direction_pdf(wat, bd, w);
-        first_weight = pa / (pa + pb);
+        // Beam-guided first direction (exact mode, irradiances that see the sky; as at
+        // scattering vertices):
+        // the path starts towards the beam's reverse a fraction kBeamGuide of the time, and
+        // its score is the response over the mixture's pdf.
+        const double sensor_pdf = weight;  // response / sensor_pdf is the sensor's own pdf
+        const bool guide = cone_half_angle == 0.0 && (r.quantity == Quantity::kEd || r.quantity == Quantity::kEo ||
+                                                      r.quantity == Quantity::kEod);
+        auto mixture = [&](const Vec3& v) {
+            const double own = response(v) / sensor_pdf;
+            return guide ? (1.0 - kBeamGuide) * own + kBeamGuide * beam_direction_pdf(wat, bd, v) : own;
+        };
+        if (guide) {
+            if (rng.uniform() < kBeamGuide) w = sample_beam_direction(wat, bd, rng);
+            const double pm = mixture(w);
+            weight = pm > 0.0 ? response(w) / pm : 0.0;  // the path's score per unit radiance
+        }
+        double pa = mixture(w), pb = beam_direction_pdf(wat, bd, w);
+        first_weight = pa + pb > 0.0 ? pa / (pa + pb) : 0.0;
         Vec3 wb = sample_beam_direction(wat, bd, rng);
         double resp = response(wb);
         if (resp > 0.0) {
-            double pa_b = resp / weight, pb_b = beam_direction_pdf(wat, bd, wb);
+            double pa_b = mixture(wb), pb_b = beam_direction_pdf(wat, bd, wb);
             Hit hb = intersect(r.position, wb);
             c.segments++;
             Spectrum I;

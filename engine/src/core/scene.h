@@ -21,6 +21,9 @@ constexpr int kMaxBands = 16;  // bands per render pass; larger band lists are s
 constexpr int kNumComponents = 5;  // total, beam_surface, beam_volume, path, beam_direct
 constexpr int kRoughFlatBeams = 16;  // facets per build below a rough flat ocean
 constexpr int kMaxBeams = 64;      // beams summed at one point (overlaps in strong caustics)
+// Exact mode (forward cone 0): the fraction of path continuations drawn around a beam's
+// reverse (Scene::trace, radiometer_sample).
+constexpr double kBeamGuide = 0.25;
 
 struct Spectrum {
     std::array<double, kMaxBands> v{};
