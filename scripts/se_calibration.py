@@ -13,6 +13,7 @@ unreliable (too few passes, heavy tails) are counted in the 'flagged' column.
 
     .venv/bin/python scripts/se_calibration.py                       # a quick grid (~10 min)
     .venv/bin/python scripts/se_calibration.py --full --json se.json # 1024 ... 1M samples
+    .venv/bin/python scripts/se_calibration.py --markdown se.json    # the table of docs/verification.md
 """
 from __future__ import annotations
 
@@ -95,6 +96,28 @@ def camera_rows(surface, zenith, cone, spp, seeds, threads):
              "flagged": unknown}]
 
 
+def markdown(rows: list[dict]) -> str:
+    """The rows as a table: one line per setting and quantity, one column per sample count
+    (the ratio, and in brackets how many seeds' errors Photic flagged, when any)."""
+    table: dict = {}
+    columns: list = []
+    for r in rows:
+        pixels = r["quantity"] == "pixels"
+        col = (pixels, r["samples"])
+        if col not in columns:
+            columns.append(col)
+        key = (r["surface"], r["zenith"], r["cone"], "pixels (median)" if pixels else r["quantity"])
+        table.setdefault(key, {})[col] = f"{r['ratio']:.2f}" + (f" ({r['flagged']})" if r["flagged"] else "")
+    columns.sort()
+    head = [f"{n} spp" if pixels else f"{n:,}" for pixels, n in columns]
+    lines = ["| sea | sun zenith | cone | quantity | " + " | ".join(head) + " |",
+             "| --- | --- | --- | --- | " + " | ".join("---" for _ in head) + " |"]
+    for (surface, zenith, cone, quantity), cells in table.items():
+        lines.append(f"| {surface} | {zenith:g} | {cone:g} | {quantity} | " +
+                     " | ".join(cells.get(c, "") for c in columns) + " |")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=16)
@@ -108,7 +131,13 @@ def main(argv=None) -> int:
                     help="zeniths 0,30,60,80,85 and 1024 ... 1M samples")
     ap.add_argument("--threads", type=int, default=0)
     ap.add_argument("--json", help="write the rows here")
+    ap.add_argument("--markdown", nargs="+", metavar="JSON",
+                    help="only print the rows of these --json files as a Markdown table")
     a = ap.parse_args(argv)
+    if a.markdown:
+        rows = [r for f in a.markdown for r in json.load(open(f))["rows"]]
+        print(markdown(rows))
+        return 0
     if a.full:
         a.zeniths, a.samples = "0,30,60,80,85", "1024,4096,16384,65536,262144,1048576"
     seeds = list(range(1, a.seeds + 1))
