@@ -318,7 +318,7 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
     // bottom): its prism serves every period, and the meshes (which stand in one period only)
     // are met by each query's shadow rays in the period it asks about. A vertex ray of a water
     // mesh meets everything.
-    auto trace_vertex = [&](const Vec3& p, const Vec3& n, int wi, bool rough, bool periodic) {
+    auto trace_vertex = [&](const Vec3& p, const Vec3& n, const Vec3& nf, int wi, bool rough, bool periodic) {
         VertexRay r;
         r.p = p;
         r.n = n;
@@ -331,8 +331,14 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
                              : cs > 0.0 && refract(-s, n, 1.0, w.ior, &r.d);
         if (through) {
             r.lit = periodic ? !occluded_ocean(p + n * off, s) : !occluded(p + n * off, s);
-        } else {
-            r.d = -n;  // unlit grazing vertex: a placeholder direction into the water
+        } else if (!(rough ? ocean_refraction(nf, w.ior, &r.d, &T, facet_u1, facet_u2)
+                           : refract(-s, nf, 1.0, w.ior, &r.d))) {
+            // Unlit: the sun grazes the vertex's normal from behind. Its ray follows the sun
+            // refracted by the source face (which faces the sun), so that the prism stays a
+            // prism (a placeholder straight down made prisms metres wide at grazing suns,
+            // marking thousands of grid cells each); the shadow rays of each query say where
+            // the light is.
+            r.d = -n;
         }
         Hit h = periodic ? intersect_ocean(p - n * off, r.d, cap) : intersect(p - n * off, r.d, cap);
         r.len = h.valid ? h.t + off : cap;
@@ -353,7 +359,7 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             stack.pop_back();
             VertexRay r[3];
             const bool rough = st.periodic && ocean_rough;  // the ocean patch's facets
-            for (int j = 0; j < 3; ++j) r[j] = trace_vertex(it.p[j], it.n[j], st.water, rough, st.periodic);
+            for (int j = 0; j < 3; ++j) r[j] = trace_vertex(it.p[j], it.n[j], st.nf, st.water, rough, st.periodic);
             int lit = int(r[0].lit) + int(r[1].lit) + int(r[2].lit);
             if (lit == 0) continue;
             // One prism is right only if its three rays end on one plane of one object; else
