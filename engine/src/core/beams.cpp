@@ -443,6 +443,19 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
 
 void Scene::build_grid() {
     grid_ = BeamGrid();
+    prism_keys_.resize(prisms.size());
+    for (size_t pi = 0; pi < prisms.size(); ++pi) {
+        const BeamPrism& P = prisms[pi];
+        PrismKey& K = prism_keys_[pi];
+        K.water = P.water;
+        K.horizontal = P.m.x == 0.0 && P.m.y == 0.0 && P.m.z == -1.0;
+        for (int j = 0; j < 3; ++j) {  // p_j = v_j + d_j (h - mv_j) / md_j
+            K.bx[j] = P.d[j].x / P.md[j];
+            K.by[j] = P.d[j].y / P.md[j];
+            K.ax[j] = P.v[j].x - K.bx[j] * P.mv[j];
+            K.ay[j] = P.v[j].y - K.by[j] * P.mv[j];
+        }
+    }
     if (prisms.empty()) return;
     Vec3 lo(kInf, kInf, kInf), hi(-kInf, -kInf, -kInf);
     std::vector<double> widths;
@@ -648,12 +661,33 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool ex
             int cz = int(std::floor((y.z - grid_.lo.z) / grid_.cell.z));
             if (cx < 0 || cy < 0 || cz < 0 || cx >= grid_.nx || cy >= grid_.ny || cz >= grid_.nz) continue;
             size_t c = (size_t(cz) * grid_.ny + cy) * grid_.nx + cx;
+            const double h = -y.z;
             for (uint32_t k = grid_.start[c]; k < grid_.start[c + 1]; ++k) {
-                const BeamPrism& P = prisms[grid_.items[k]];
-                if (P.water != medium) continue;
-                if ((i != 0 || j != 0) && !(periodic && P.water == ocean_water)) continue;
+                const uint32_t pi = grid_.items[k];
+                const PrismKey& K = prism_keys_[pi];
+                if (K.water != medium) continue;
+                if ((i != 0 || j != 0) && !(periodic && K.water == ocean_water)) continue;
+                if (K.horizontal) {
+                    // The slice's corners and y's edge functions; prism_eval's barycentric test
+                    // with a tolerance a thousand times looser (rounding of the corners here
+                    // differs from its own by ~1e-16 relative).
+                    double px[3], py[3];
+                    for (int q = 0; q < 3; ++q) {
+                        px[q] = K.ax[q] + K.bx[q] * h;
+                        py[q] = K.ay[q] + K.by[q] * h;
+                    }
+                    const double C = (px[1] - px[0]) * (py[2] - py[0]) - (px[2] - px[0]) * (py[1] - py[0]);
+                    if (C != 0.0) {
+                        const double c0 = (px[1] - y.x) * (py[2] - y.y) - (px[2] - y.x) * (py[1] - y.y);
+                        const double c1 = (px[2] - y.x) * (py[0] - y.y) - (px[0] - y.x) * (py[2] - y.y);
+                        const double tol = -1e-9 * std::fabs(C);
+                        const double s0 = C > 0.0 ? c0 : -c0, s1 = C > 0.0 ? c1 : -c1;
+                        const double s2 = (C > 0.0 ? C : -C) - s0 - s1;
+                        if (s0 < tol || s1 < tol || s2 < tol) continue;
+                    }
+                }
                 if (n >= max) return n;
-                if (prism_eval(P, y, x, &out[n], exact)) ++n;
+                if (prism_eval(prisms[pi], y, x, &out[n], exact)) ++n;
             }
         }
     return n;

@@ -467,6 +467,16 @@ private:
         int nx = 0, ny = 0, nz = 0;
         std::vector<uint32_t> start, items;
     } grid_;
+    // Per prism, what a query reads first (beside it in memory, not in the large BeamPrism):
+    // its water body and, for prisms sliced horizontally, the corners of the slice at height
+    // h = -z as x = ax + bx h, y = ay + by h, for a point-in-triangle test that rejects most
+    // candidates before prism_eval (conservatively: it accepts whatever prism_eval would).
+    struct PrismKey {
+        double ax[3], bx[3], ay[3], by[3];
+        int water;
+        bool horizontal;
+    };
+    std::vector<PrismKey> prism_keys_;
     void build_grid();
     RTCDevice device_ = nullptr;
     RTCScene scene_ = nullptr;
