@@ -249,3 +249,21 @@ def test_cli_hybrid_without_a_sun(tmp_path):
         "radiometers": [{"name": "Ed", "quantity": "Ed", "position": [0, 0, -2.0]}]}))
     assert main(["render", str(path), "--integrator", "hybrid", "--radiometer-samples", "4096",
                  "--out", str(tmp_path / "out")]) == 0
+
+
+def test_exact_mode_below_waves_is_flagged():
+    """Below a wavy sea the exact mode's errors were 3-26x too small at 16,384 samples with few
+    runs noticing (docs/verification.md): every radiometer in that water says so; in the air,
+    with a forward cone or below a flat sea nothing is flagged for it."""
+    from photic.render import EXACT_BELOW_WAVES
+    sc = calibration_scene("waves", 30.0, 0.0, 1, False)
+    sc.radiometers = [r for r in sc.radiometers if r.name in ("Ed_1", "Eo_1")]
+    res = render(sc, radiometer_samples=1024, threads=2)
+    for r in res.radiometers:
+        assert r.medium != "air" and not r.reliable.any() and EXACT_BELOW_WAVES in r.notes, r.name
+    assert EXACT_BELOW_WAVES in radiometer_table(res)
+    for surface, cone in (("waves", 3.0), ("flat", 0.0)):
+        sc = calibration_scene(surface, 30.0, cone, 1, False)
+        sc.radiometers = [r for r in sc.radiometers if r.name == "Ed_1"]
+        r = render(sc, radiometer_samples=1024, threads=2).radiometers[0]
+        assert EXACT_BELOW_WAVES not in r.notes, (surface, cone)

@@ -32,8 +32,8 @@ import numpy as np
 from ..compile import band_groups, compile_scene
 from ..estimates import CameraSums, RadiometerSums
 from ..render import (COMPONENTS, ImageResult, RenderResult, _mean_stderr, build_pass_beams,
-                      camera_passes, image_result, radiometer_passes, radiometer_result,
-                      uses_beams)
+                      camera_passes, flag_exact_mode_below_waves, image_result, radiometer_passes,
+                      radiometer_result, uses_beams)
 from .job import Item, Job
 
 NC = len(COMPONENTS) + 1      # the core's layout: total, then the components
@@ -302,7 +302,9 @@ class ItemMerger:
                 continue
             m = self.media.get(ri, -1)
             medium = "air" if m < 0 else scene.water[m].name
-            res.radiometers.append(radiometer_result(r, medium, [x for x in self.rads[ri] if x.samples.max() > 0]))
+            rr = radiometer_result(r, medium, [x for x in self.rads[ri] if x.samples.max() > 0])
+            flag_exact_mode_below_waves(rr, scene, item.integrator == "hybrid", item.forward_cone_deg, m)
+            res.radiometers.append(rr)
         t = self.unit_time_s
         res.stats = dict(self.counters, time_s=t, threads=0, seed=item.seed, samples=item.samples,
                          radiometer_samples=item.radiometer_samples * max(1, self.rounds),
