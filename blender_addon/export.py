@@ -582,7 +582,9 @@ class _Exporter:
         return S.Settings(integrator=p.integrator.lower(), samples=int(p.samples),
                           radiometer_samples=int(p.radiometer_samples), seed=int(p.seed),
                           max_depth=int(p.max_depth), threads=int(p.threads),
-                          forward_cone_deg=cone, beam_max_level=int(p.beam_max_level))
+                          forward_cone_deg=cone, beam_max_level=int(p.beam_max_level),
+                          target_error=(blender_float(p.target_error) / 100.0
+                                        if p.use_target_error else None))
 
     # -- the walk ----------------------------------------------------------------------------
     def walk(self):

@@ -85,7 +85,9 @@ def radiometer_summary(result) -> list[dict]:
              "trusted": [bool(t) for t in (r.reliable[0] if getattr(r, "reliable", None) is not None
                                            else [True] * r.mean.shape[1])],
              "notes": list(getattr(r, "notes", [])),
-             "bins": r.mean.shape[0], "units": r.units} for r in result.radiometers]
+             "bins": r.mean.shape[0], "units": r.units, "samples": int(r.samples),
+             "target_error": getattr(r, "target_error", None),
+             "target_reached": getattr(r, "target_reached", None)} for r in result.radiometers]
 
 
 def table_stem(bscene) -> tuple[Path, str]:

@@ -462,6 +462,15 @@ class PhoticSceneProperties(bpy.types.PropertyGroup):
                                     max=2_000_000_000,
                                     description="Samples per radiometer (the standard error "
                                                 "falls as 1/sqrt of this)")
+    use_target_error: BoolProperty(
+        name="Target Error", default=False,
+        description="Stop each radiometer when its worst relative standard error (over its "
+                    "bands and bins) reaches the target and can be trusted; Radiometer Samples "
+                    "is then the most it may take")
+    target_error: FloatProperty(name="Target Error", default=1.0, min=0.001, max=50.0,
+                                soft_min=0.1, soft_max=10.0, precision=2, subtype="PERCENTAGE",
+                                description="Relative standard error (1 sigma, percent of the "
+                                            "value) at which a radiometer stops")
     seed: IntProperty(name="Seed", default=0, min=0, max=2**31 - 1,
                       description="Random seed: the same seed gives the same result bit for "
                                   "bit on any number of threads")

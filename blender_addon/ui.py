@@ -45,6 +45,11 @@ class PHOTIC_PT_render(PhoticPanel, bpy.types.Panel):
         col.prop(p, "viewport_samples")
         col.prop(p, "viewport_scale")
         layout.prop(p, "radiometer_samples")
+        row = layout.row(heading="Target Error")
+        row.prop(p, "use_target_error", text="")
+        sub = row.row()
+        sub.active = p.use_target_error
+        sub.prop(p, "target_error", text="")
         col = layout.column(align=True)
         col.prop(p, "seed")
         col.prop(p, "threads")
@@ -107,6 +112,10 @@ class PHOTIC_PT_radiometer_results(PhoticPanel, bpy.types.Panel):
                                for v, e, t in zip(row["value"], row["stderr"], trusted))
             extra = f" ({row['bins']} bins, first shown)" if row["bins"] > 1 else ""
             layout.label(text=f"{row['name']} {row['quantity']} [{row['medium']}]: {values}{extra}")
+            if row.get("target_error") is not None and not row.get("target_reached"):
+                layout.label(text=f"    target error {100 * row['target_error']:.3g} % not reached "
+                                  f"in {row['samples']} samples (raise Radiometer Samples)",
+                             icon="INFO")
             if not all(trusted):
                 layout.label(text="    ? error not to be trusted: " + ", ".join(row.get("notes", [])),
                              icon="ERROR")

@@ -143,6 +143,38 @@ def test_canonical_blend_exports_exactly_the_scene_file_and_renders_the_same_val
         assert r_blend["stderr"] == r_direct.stderr.tolist()
 
 
+def test_target_error_from_blender_is_the_engines(tmp_path):
+    """Target Error in the Render panel: exported as settings.target_error, imported back, and
+    a batch render with a target gives the numbers of the engine's adaptive render of the same
+    scene, bit for bit, with the target's fields in the JSON table."""
+    import json
+    ensure_registered()
+    bpy.ops.wm.open_mainfile(filepath=str(BLENDS / "canonical_problem2.blend"))
+    p = bpy.context.scene.photic
+    assert not p.use_target_error and export_current()[0].settings.target_error is None
+    p.use_target_error, p.target_error = True, 2.5
+    exported, _ = export_current()
+    assert exported.settings.target_error == 0.025
+    path = tmp_path / "t.json"
+    photic.scene.save_scene(exported, path)
+    p.use_target_error = False
+    assert bpy.ops.photic.import_scene(filepath=str(path)) == {"FINISHED"}
+    assert bpy.context.scene.photic.use_target_error
+    assert bpy.context.scene.photic.target_error == pytest.approx(2.5)
+
+    summary = render_blend(BLENDS / "canonical_problem2.blend", out_dir=tmp_path, samples=1,
+                           radiometer_samples=1 << 16, target_error=0.02)
+    assert summary["stats"]["target_error"] == 0.02
+    reference = load_scene(BLENDS / "canonical_problem2.json")
+    direct = Renderer(reference, samples=1, radiometer_samples=1 << 16, target_error=0.02).run()
+    table = json.loads(Path(summary["tables"][1]).read_text())
+    for r_blend, r_direct in zip(table["radiometers"], direct.radiometers):
+        assert r_blend["value"] == r_direct.mean.tolist()
+        assert r_blend["target_error"] == 0.02
+        assert r_blend["target_reached"] == r_direct.target_reached
+    assert summary["stats"]["target_reached"] == direct.stats["target_reached"] > 0
+
+
 def test_canonical_blend_reproduces_problem_2(zscore):
     """The .blend's radiometer array against the published mean of the models (Mobley et al.
     1993), with the tolerance of `photic problems` and fewer samples."""

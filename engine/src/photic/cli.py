@@ -68,6 +68,31 @@ def _write_beam_mesh(scene, path, threads) -> int:
     return 0
 
 
+def relative_error_arg(text: str) -> float:
+    """--target-error: '1%' or 0.01 (a fraction), between 0 and 1 exclusive."""
+    t = text.strip()
+    try:
+        v = float(t[:-1]) / 100.0 if t.endswith("%") else float(t)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a relative error such as 1% or 0.01, got {text!r}")
+    if not 0.0 < v < 1.0:
+        raise argparse.ArgumentTypeError(f"must be between 0 and 100 % (0 and 1), got {text!r}")
+    return v
+
+
+def target_summary(result) -> str | None:
+    """One line on the target error of an adaptive render (None without one)."""
+    st = result.stats
+    if st.get("target_error") is None or not result.radiometers:
+        return None
+    rs = result.radiometers
+    worst = max(r.relative_error for r in rs)
+    samples = sorted(r.samples for r in rs)
+    return (f"target error {100 * st['target_error']:.3g} %: reached by {st['target_reached']} of "
+            f"{len(rs)} radiometers in {st['rounds']} rounds (worst {100 * worst:.3g} %; "
+            f"{samples[0]}-{samples[-1]} samples, at most {st['radiometer_samples']})")
+
+
 def cmd_render(args) -> int:
     from .output import write_outputs
     from .render import Renderer
@@ -79,6 +104,8 @@ def cmd_render(args) -> int:
             scene.settings.integrator = args.integrator
         if args.forward_cone is not None:
             scene.settings.forward_cone_deg = args.forward_cone if args.forward_cone == "auto" else float(args.forward_cone)
+        if args.target_error is not None:
+            scene.settings.target_error = args.target_error
         renderer = Renderer(scene, samples=args.samples, radiometer_samples=args.radiometer_samples,
                             seed=args.seed, threads=args.threads)
     except SceneError as e:
@@ -118,6 +145,9 @@ def cmd_render(args) -> int:
           + ("  [CANCELLED: partial result]" if result.cancelled else ""))
     if result.radiometers:
         print(radiometer_table(result))
+        line = target_summary(result)
+        if line:
+            print(line)
     for p in written["images"]:
         print(f"image: {p}")
     for p in written["tables"]:
@@ -260,7 +290,8 @@ def cmd_blend(args) -> int:
             summary = batch.render_blend(args.file, frame=args.frame, out_dir=args.out,
                                          samples=args.samples,
                                          radiometer_samples=args.radiometer_samples,
-                                         seed=args.seed, threads=args.threads, progress=progress)
+                                         seed=args.seed, threads=args.threads, progress=progress,
+                                         target_error=args.target_error)
         finally:
             if bar is not None:
                 bar.close()
@@ -270,6 +301,10 @@ def cmd_blend(args) -> int:
     print(f"image: {summary['image']}")
     for t in summary.get("tables", []):
         print(f"radiometer table: {t}")
+    st = summary.get("stats") or {}
+    if st.get("target_error") is not None:
+        print(f"target error {100 * st['target_error']:.3g} %: reached by {st['target_reached']} "
+              f"radiometers in {st['rounds']} rounds (at most {st['radiometer_samples']} samples)")
     if summary.get("cancelled"):
         print("cancelled: the image holds the samples finished so far", file=sys.stderr)
     return 0
@@ -341,7 +376,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", type=Path, default=Path("out"), help="output directory (default: out)")
     r.add_argument("--samples", type=int, default=None, help="camera samples per pixel (default: the scene's)")
     r.add_argument("--radiometer-samples", type=int, default=None,
-                   help="samples per radiometer (default: the scene's)")
+                   help="samples per radiometer (default: the scene's); with --target-error the "
+                        "most any radiometer takes")
+    r.add_argument("--target-error", type=relative_error_arg, default=None, metavar="REL",
+                   help="stop each radiometer when its relative standard error (the worst of its "
+                        "bins and bands) is at most REL, e.g. 1%% or 0.01, and its error can be "
+                        "trusted (default: the scene's settings.target_error)")
     r.add_argument("--seed", type=int, default=None, help="random seed (default: the scene's)")
     r.add_argument("--integrator", choices=["auto", "hybrid", "path"], default=None,
                    help="hybrid (the refracted sun as beams), path (pure path tracing) or auto "
@@ -412,6 +452,9 @@ def build_parser() -> argparse.ArgumentParser:
     bl.add_argument("--out", type=Path, default=Path("out"), help="output directory (default: out)")
     bl.add_argument("--samples", type=int, default=None, help="samples per pixel (default: the file's)")
     bl.add_argument("--radiometer-samples", type=int, default=None, help="samples per radiometer (default: the file's)")
+    bl.add_argument("--target-error", type=relative_error_arg, default=None, metavar="REL",
+                    help="stop each radiometer at this relative standard error, e.g. 1%% "
+                         "(default: the file's Target Error)")
     bl.add_argument("--seed", type=int, default=None, help="random seed (default: the file's)")
     bl.add_argument("--threads", type=int, default=None, help="threads, 0 = all cores (default: the file's)")
     bl.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -137,59 +137,95 @@ class RadiometerSums:
                 self.pair_sq[..., g] += (first - y) ** 2
                 self.pairs[g] += 1
 
-    def estimate(self) -> dict:
-        """mean, stderr (bins, components + 1, bands); reliable (bins, bands); notes (list)."""
+    def estimate(self, tails: bool = True) -> dict:
+        """mean, stderr (bins, components + 1, bands); reliable (bins, bands); notes (list).
+        ``tails``: flag heavy tails from this round's moments (combine_round_sums judges rounds
+        together on their merged moments instead)."""
         nbins = self.s.shape[0]
         counts = np.stack([bin_counts(int(t), nbins) for t in self.samples], axis=-1)[:, None, :]
         mean, err = mean_stderr(self.s, self.s2, counts)
         reliable = np.ones((nbins, self.s.shape[2]), dtype=bool)
         notes = []
+        sampled = self.samples > 0
+        if not np.all(sampled):
+            # bands of a group not rendered (a render stopped early; a round of an adaptive
+            # render that needed no more samples there, which combine_round_sums weighs 0)
+            notes.append("bands without samples")
+            reliable[:, ~sampled] = False
         if self.paired:
             k = self.pairs.astype(np.float64)
-            complete = bool(np.all(self.pairs == self.strata)) and self.strata > 0
+            complete = bool(np.all(self.pairs[sampled] == self.strata)) and self.strata > 0
             if complete:
                 # The per-sample floor: the pooled within-pass variance over N (a lower bound
                 # of the pairs' estimate's expectation; steadier where few pairs are).
                 n_all = counts.astype(np.float64)
                 passes = 2.0 * k
+                kk = np.maximum(k, 1.0)
                 with np.errstate(divide="ignore", invalid="ignore"):
                     within = np.where(n_all > passes, np.maximum(self.s2 - self.b, 0.0) /
                                       np.maximum(n_all - passes, 1.0), 0.0) / np.maximum(n_all, 1.0)
-                mean = self.pair_mean / k
-                err = np.sqrt(np.maximum(self.pair_sq / (4.0 * k * k), within))
+                mean = np.where(sampled, self.pair_mean / kk, mean)
+                err = np.where(sampled, np.sqrt(np.maximum(self.pair_sq / (4.0 * kk * kk), within)), err)
             else:
                 # A render stopped before its last pair: the strata done cover part of the
                 # disk only; the per-sample error is all there is.
                 notes.append("incomplete passes")
                 reliable[:] = False
-            if np.any(self.pairs < MIN_STRATA):
+            few = (self.pairs < MIN_STRATA) & sampled
+            if np.any(few):
                 notes.append("too few passes")
-                reliable[:, self.pairs < MIN_STRATA] = False
+                reliable[:, few] = False
             if np.any(self.empty_bins):
                 notes.append("bins without samples in a pass")
                 reliable[self.empty_bins] = False
         n, _, m2, _, m4 = self.mom
         vov = variance_of_variance(n, m2, m4)
-        heavy = (vov > VOV_LIMIT) & self.has_moments[None, :]
-        if np.any(heavy):
-            notes.append("heavy tails")
-            reliable &= ~heavy
+        if tails:
+            _flag_heavy_tails(vov, self.has_moments, reliable, notes)
         return {"mean": mean, "stderr": err, "reliable": reliable, "vov": vov, "notes": notes,
                 "samples": int(self.samples.min()) if self.samples.size else 0}
 
 
-def combine_rounds(estimates: list[dict], weights: list[float]) -> dict:
-    """Independent estimates (rounds of one render, each with its own seed) combined with
-    weights (their sample counts): means weighted, variances by the squared weights."""
-    w = np.asarray(weights, dtype=np.float64)
-    w = w / w.sum()
-    mean = sum(wi * e["mean"] for wi, e in zip(w, estimates))
-    err = np.sqrt(sum((wi * e["stderr"]) ** 2 for wi, e in zip(w, estimates)))
-    reliable = np.logical_and.reduce([e["reliable"] for e in estimates])
-    notes = sorted({n for e in estimates for n in e["notes"]})
-    vov = np.maximum.reduce([e["vov"] for e in estimates])
+def _flag_heavy_tails(vov: np.ndarray, has_moments: np.ndarray, reliable: np.ndarray,
+                      notes: list) -> None:
+    heavy = (vov > VOV_LIMIT) & has_moments[None, :]
+    if np.any(heavy):
+        notes.append("heavy tails")
+        reliable &= ~heavy
+
+
+def combine_round_sums(rounds: list[RadiometerSums]) -> dict:
+    """One radiometer's rounds (independent renders with their own seeds, of any sizes, each
+    covering some of the bands) as one estimate, like RadiometerSums.estimate.
+
+    Per band, the rounds that sampled it are weighted by their sample counts (the mean of all
+    samples but for the strata's weights); the variance is the sum of the weighted rounds'.
+    Tails are judged on the moments of all samples merged (a round too small to show a rare
+    path's weight no longer hides it), the other flags round by round."""
+    if len(rounds) == 1:
+        return rounds[0].estimate()
+    ests = [r.estimate(tails=False) for r in rounds]
+    w = np.stack([r.samples.astype(np.float64) for r in rounds])      # (rounds, bands)
+    total = w.sum(axis=0)
+    w = w / np.where(total > 0, total, 1.0)
+    mean = sum(wi * e["mean"] for wi, e in zip(w, ests))
+    err = np.sqrt(sum((wi * e["stderr"]) ** 2 for wi, e in zip(w, ests)))
+    reliable = np.logical_and.reduce([e["reliable"] | (r.samples == 0)[None, :]
+                                      for r, e in zip(rounds, ests)])
+    notes = ["bands without samples"] if np.any(total == 0) else []
+    for r, e in zip(rounds, ests):
+        if np.any(r.samples > 0):
+            notes += [n for n in e["notes"] if n not in notes and n != "bands without samples"]
+    reliable[:, total == 0] = False
+    mom = rounds[0].mom
+    for r in rounds[1:]:
+        mom = merge_moments(mom, r.mom)
+    n, _, m2, _, m4 = mom
+    vov = variance_of_variance(n, m2, m4)
+    has_moments = np.logical_and.reduce([r.has_moments | (r.samples == 0) for r in rounds])
+    _flag_heavy_tails(vov, has_moments, reliable, notes)
     return {"mean": mean, "stderr": err, "reliable": reliable, "vov": vov, "notes": notes,
-            "samples": sum(e["samples"] for e in estimates)}
+            "samples": int(total.min()) if total.size else 0}
 
 
 class CameraSums:

@@ -137,6 +137,9 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
                             "value": r.mean.tolist(), "stderr": r.stderr.tolist(),
                             "stderr_trusted": (r.reliable.tolist() if r.reliable is not None else None),
                             "stderr_notes": list(r.notes),
+                            **({} if r.target_error is None else
+                               {"target_error": r.target_error, "relative_error": r.relative_error,
+                                "target_reached": r.target_reached}),
                             "components": {c: {"value": r.components[c][0].tolist(),
                                                "stderr": r.components[c][1].tolist()}
                                            for c in COMPONENTS if c in r.components}}

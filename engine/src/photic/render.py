@@ -16,13 +16,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .compile import band_groups, compile_scene
-from .estimates import (CameraSums, RadiometerSums, bin_counts, combine_rounds, image_variance,
-                        mean_stderr)
+from .estimates import (CameraSums, RadiometerSums, bin_counts, combine_round_sums,
+                        image_variance, mean_stderr)
 from .scene import IOPGrid, IOPProfile, Scene, SceneError
 
 RADIOMETER_PASS = 1 << 16  # samples per radiometer pass (a multiple of the core's chunk)
 PAIRED_PASS = 1 << 12      # at most this many per pass in paired strata (more pairs, finer strata)
 MIN_PAIRED_PASSES = 8      # paired strata: at least 4 pairs (photic.estimates.MIN_STRATA)
+FIRST_ROUND = 4096         # target error: samples per radiometer of the first round
+MIN_ROUND = 1024           # ... and at least this many in each further round
+ROUND_MARGIN = 1.1         # ... which asks for this much more than the error's N^-1/2 predicts
 UNITS_RADIANCE = "W m^-2 sr^-1 (per unit of the band's source spectrum, e.g. nm^-1)"
 UNITS_IRRADIANCE = "W m^-2 (per unit of the band's source spectrum, e.g. nm^-1)"
 IRRADIANCE_QUANTITIES = {"Ed", "Eu", "Eo", "Eod", "Eou"}
@@ -60,6 +63,11 @@ class RadiometerResult:
     reliable: np.ndarray | None = None
     notes: list = field(default_factory=list)
     vov: np.ndarray | None = None
+    # With a target relative error (settings.target_error): the worst relative standard error
+    # over bins and bands, and whether the target was met with errors that can be trusted.
+    target_error: float | None = None
+    relative_error: float | None = None
+    target_reached: bool | None = None
 
     @property
     def units(self) -> str:
@@ -305,10 +313,44 @@ def flag_exact_mode_below_waves(res: "RadiometerResult", scene: Scene, hybrid: b
         res.reliable[:] = False
 
 
+def round_seed(seed: int, rnd: int) -> int:
+    """The seed of round ``rnd`` of a render (round 0 keeps the render's seed, so a render of
+    one round equals a plain one)."""
+    if rnd == 0:
+        return seed
+    state = np.random.SeedSequence([seed, 0x5EED, rnd]).generate_state(2, np.uint32)
+    return int((int(state[0]) << 32 | int(state[1])) & ((1 << 63) - 1))
+
+
+def worst_relative_error(mean: np.ndarray, stderr: np.ndarray) -> float:
+    """The largest stderr / |mean| over the entries (a total's bins and bands); entries that
+    are exactly 0 +- 0 (a bin no light reaches) do not count, a 0 with an error is infinite."""
+    zero = (mean == 0) & (stderr == 0)
+    if np.all(zero):
+        return 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.where(zero, 0.0, stderr / np.abs(mean))
+    return float(np.max(np.nan_to_num(rel, nan=np.inf, posinf=np.inf)))
+
+
+def next_round_samples(done: int, rel: float, target: float, trusted: bool, left: int) -> int:
+    """Samples per radiometer of an adaptive render's next round (0: stop).
+
+    The error falls as N^-1/2, so reaching ``target`` from ``rel`` after ``done`` samples takes
+    done ((rel / target)^2 - 1) more (with a margin); an error that cannot be trusted yet
+    (too few passes, heavy tails) is not extrapolated: the samples are doubled instead."""
+    if left <= 0 or (trusted and rel <= target):
+        return 0
+    if trusted and np.isfinite(rel):
+        need = done * ((rel / target) ** 2 - 1.0) * ROUND_MARGIN
+    else:
+        need = done
+    return int(min(left, max(MIN_ROUND, np.ceil(need))))
+
+
 def radiometer_result(r, medium: str, rounds: list[RadiometerSums]) -> RadiometerResult:
     """A radiometer's result from the sums of its rounds (one for a plain render)."""
-    ests = [x.estimate() for x in rounds]
-    est = ests[0] if len(ests) == 1 else combine_rounds(ests, [e["samples"] for e in ests])
+    est = combine_round_sums(rounds)
     mean, err = est["mean"], est["stderr"]
     bins = (r.polar_bins, r.azimuth_bins) if r.quantity == "radiance_distribution" else None
     comps = {c: (mean[:, i + 1, :], err[:, i + 1, :]) for i, c in enumerate(COMPONENTS)}
@@ -321,11 +363,15 @@ class Renderer:
     """Renders a validated scene progressively.
 
     Parameters override the scene's settings: ``samples`` per pixel, ``radiometer_samples`` per
-    radiometer, ``seed``, ``threads`` (0 = all cores).
+    radiometer, ``seed``, ``threads`` (0 = all cores), ``target_error`` (a relative standard
+    error at which each radiometer stops, ``radiometer_samples`` then being the most it may
+    take; None: every radiometer takes all its samples).
     """
 
+    _UNSET = object()
+
     def __init__(self, scene: Scene, samples: int | None = None, radiometer_samples: int | None = None,
-                 seed: int | None = None, threads: int | None = None):
+                 seed: int | None = None, threads: int | None = None, target_error=_UNSET):
         scene.validate()
         st = scene.settings
         self.integrator = resolve_integrator(scene)
@@ -341,6 +387,13 @@ class Renderer:
                 raise SceneError("settings", what, f"must be in 1..{hi}, got {value}")
         if not 0 <= self.threads <= 1024:
             raise SceneError("settings", "threads", f"must be in 0..1024, got {self.threads}")
+        te = st.target_error if target_error is Renderer._UNSET else target_error
+        if te is not None:
+            te = float(te)
+            if not 0.0 < te < 1.0:
+                raise SceneError("settings", "target_error",
+                                 f"must be a relative error between 0 and 1 (0.01 = 1 %), got {te!r}")
+        self.target_error = te
         self._cancel = threading.Event()
         self._core = None
         # Running sums of the cameras, readable while rendering (snapshot) under the lock.
@@ -388,8 +441,11 @@ class Renderer:
                                      for c in scene.cameras}
         cam_done = self._cam_done = {c.name: 0 for c in scene.cameras}
         cam_passes = self._camera_passes()
-        rad_passes = radiometer_passes(self.radiometer_samples, beams)
-        rad_sums: list[RadiometerSums] = []
+        # per radiometer, its sums per (band group, round); without a target error one round
+        # whose sums all band groups fill, keyed (0, 0)
+        rad_rounds: list[dict] = [{} for _ in radiometers]
+        nbins_of = [0] * len(radiometers)
+        rounds_run = 0
         total_work = len(groups) * (sum(c.resolution[0] * c.resolution[1] * self.samples for c in scene.cameras)
                                     + len(radiometers) * self.radiometer_samples)
         done_work = 0
@@ -409,12 +465,12 @@ class Renderer:
             for k in counters:
                 counters[k] += int(c[k])
 
-        def new_pass(core, key, i, n, paired):
+        def new_pass(core, seed, key, i, n, paired):
             """Before a pass of the hybrid integrator: beams for its sun direction."""
             if not beams:
                 return
             tb = time.perf_counter()
-            build_pass_beams(core, scene, self.seed, key, i, n, self.threads, paired)
+            build_pass_beams(core, scene, seed, key, i, n, self.threads, paired)
             beam_stats["build_s"] += time.perf_counter() - tb
             beam_stats["passes"] += 1
             beam_stats["prisms"] = max(beam_stats["prisms"], core.beam_count)
@@ -436,13 +492,12 @@ class Renderer:
                 media[ri] = "air" if m < 0 else scene.water[m].name
                 media_index[ri] = m
                 if gi == 0:
-                    nbins = core.radiometer_bins(ri)
-                    rad_sums.append(RadiometerSums((nbins, nc, nb), beams, len(rad_passes) // 2))
+                    nbins_of[ri] = core.radiometer_bins(ri)
             # Cameras: every pass with beams of its own (an independent draw).
             for ci, cam in enumerate(scene.cameras):
                 shape = (cam.resolution[1], cam.resolution[0], nc, g.stop - g.start)
                 for pi, (start, n) in enumerate(cam_passes):
-                    new_pass(core, (0, ci), pi, len(cam_passes), False)
+                    new_pass(core, self.seed, (0, ci), pi, len(cam_passes), False)
                     s, s2, c = core.render_camera(ci, start, n, self.threads, out(shape))
                     if core.cancelled:
                         cancelled = True
@@ -456,24 +511,56 @@ class Renderer:
                     report(f"camera {cam.name}: {start + n}/{self.samples} samples")
                 if cancelled:
                     break
-            # Radiometers: pass after pass, all of them with the same beams (one build per pass
-            # serves them all); the passes are paired strata of the sun's disk.
-            for pi, (start, n) in enumerate(rad_passes):
-                if cancelled or not radiometers:
-                    break
-                new_pass(core, (1,), pi, len(rad_passes), True)
-                for ri in range(len(radiometers)):
-                    shape = rad_sums[ri].s.shape[:-1] + (g.stop - g.start,)
-                    mom = np.empty((shape[0], 3, shape[2]))
-                    s, s2, c = core.render_radiometer(ri, start, n, self.threads, out(shape), mom)
-                    if core.cancelled:
-                        cancelled = True
+            # Radiometers: in rounds (one without a target error), each pass after pass for
+            # all radiometers still running with the same beams (one build per pass serves them
+            # all); the passes of a round are paired strata of the sun's disk.
+            active = list(range(len(radiometers)))
+            rnd, size, done = 0, self.radiometer_samples, 0
+            if self.target_error is not None:
+                size = min(size, FIRST_ROUND)
+            while active and size > 0 and not cancelled:
+                seed = round_seed(self.seed, rnd)
+                core.seed = seed
+                passes = radiometer_passes(size, beams)
+                key = (gi if self.target_error is not None else 0, rnd)
+                for ri in active:
+                    rad_rounds[ri].setdefault(key, RadiometerSums(
+                        (nbins_of[ri], nc, nb), beams, len(passes) // 2))
+                for pi, (start, n) in enumerate(passes):
+                    new_pass(core, seed, (1,), pi, len(passes), True)
+                    for ri in active:
+                        sums = rad_rounds[ri][key]
+                        shape = sums.s.shape[:-1] + (g.stop - g.start,)
+                        mom = np.empty((shape[0], 3, shape[2]))
+                        s, s2, c = core.render_radiometer(ri, start, n, self.threads, out(shape), mom)
+                        if core.cancelled:
+                            cancelled = True
+                            break
+                        with self._lock:
+                            sums.add_pass(g, pi, start, n, s, s2, mom)
+                            add_counts(c)
+                            done_work += n
+                    if cancelled:
                         break
-                    with self._lock:
-                        rad_sums[ri].add_pass(g, pi, start, n, s, s2, mom)
-                        add_counts(c)
-                        done_work += n
-                report(f"radiometers: {start + n}/{self.radiometer_samples} samples")
+                    report(f"radiometers: {done + start + n}/{self.radiometer_samples} samples"
+                           + (f" (round {rnd + 1})" if self.target_error is not None else ""))
+                done += size
+                rnd += 1
+                if self.target_error is None or cancelled:
+                    break
+                # Who goes on: those whose worst relative error in this group is above the
+                # target (or not yet to be trusted), for the most samples any of them needs.
+                sizes = {}
+                for ri in active:
+                    est = combine_round_sums(list(rad_rounds[ri].values()))
+                    rel = worst_relative_error(est["mean"][:, 0, g], est["stderr"][:, 0, g])
+                    trusted = bool(np.all(est["reliable"][:, g]))
+                    sizes[ri] = next_round_samples(done, rel, self.target_error, trusted,
+                                                   self.radiometer_samples - done)
+                active = [ri for ri in active if sizes[ri] > 0]
+                size = max(sizes.values(), default=0)
+                rounds_run = max(rounds_run, rnd)
+            rounds_run = max(rounds_run, rnd)
             if cancelled:
                 break
         self._core = None
@@ -481,11 +568,18 @@ class Renderer:
 
         for cam in scene.cameras:
             result.images[cam.name] = image_result(cam.name, cam_sums[cam.name], cam_done[cam.name])
+        reached = 0
         for ri, r in enumerate(radiometers):
-            if ri >= len(rad_sums):
+            if not rad_rounds[ri]:
                 break
-            res = radiometer_result(r, media[ri] or "air", [rad_sums[ri]])
+            res = radiometer_result(r, media[ri] or "air", [rad_rounds[ri][k] for k in sorted(rad_rounds[ri])])
             flag_exact_mode_below_waves(res, scene, hybrid, self.forward_cone_deg, media_index[ri])
+            if self.target_error is not None:
+                res.target_error = self.target_error
+                res.relative_error = worst_relative_error(res.mean, res.stderr)
+                res.target_reached = bool(res.relative_error <= self.target_error
+                                          and np.all(res.reliable) and not cancelled)
+                reached += res.target_reached
             result.radiometers.append(res)
         result.cancelled = cancelled
         result.stats = dict(counters, time_s=elapsed, threads=threads, seed=self.seed,
@@ -495,6 +589,9 @@ class Renderer:
                             forward_cone_deg=self.forward_cone_deg,
                             beam_passes=beam_stats["passes"], beam_prisms=beam_stats["prisms"],
                             beam_build_s=beam_stats["build_s"])
+        if self.target_error is not None:
+            result.stats.update(target_error=self.target_error, rounds=rounds_run,
+                                target_reached=reached)
         return result
 
 

@@ -702,6 +702,7 @@ class Settings(_ArrayEq):
     threads: int = 0
     forward_cone_deg: float | str = "auto"  # half-angle kept in the beams, or "auto"
     beam_max_level: int = 5    # adaptive subdivision levels of a water-surface triangle
+    target_error: float | None = None  # relative standard error at which radiometers stop
 
 
 def _default_bands() -> list[Band]:
@@ -1335,6 +1336,8 @@ def _validate_settings(s: Settings) -> None:
     _check_int("settings", "beam_max_level", s.beam_max_level, 0, 10)
     if s.forward_cone_deg != "auto":
         _check_real("settings", "forward_cone_deg", s.forward_cone_deg, 0.0, 30.0)
+    if s.target_error is not None:
+        _check_real("settings", "target_error", s.target_error, 0.0, 1.0, lo_open=True, hi_open=True)
 
 
 # ----------------------------------------------------------------------------------------
@@ -1878,7 +1881,9 @@ def _build_scene(d: dict, base_dir: Path) -> Scene:
         sun = Sun(float(s["zenith_deg"]), float(s["azimuth_deg"]),
                   _per_band("sun", "irradiance", s["irradiance"], nb),
                   float(s.get("angular_diameter_deg", 0.53)))
-    settings = Settings(**{k: (v if k in ("integrator", "forward_cone_deg") else int(v))
+    settings = Settings(**{k: (v if k in ("integrator", "forward_cone_deg") else
+                               None if (k == "target_error" and v is None) else
+                               float(v) if k == "target_error" else int(v))
                            for k, v in d.get("settings", {}).items()})
     return Scene(
         name=d.get("name", "scene"), bands=bands, materials=materials, meshes=meshes,
@@ -2014,7 +2019,9 @@ def _scene_to_dict(s: Scene) -> dict:
                      "seed": int(s.settings.seed), "max_depth": int(s.settings.max_depth),
                      "threads": int(s.settings.threads),
                      "forward_cone_deg": s.settings.forward_cone_deg,
-                     "beam_max_level": int(s.settings.beam_max_level)},
+                     "beam_max_level": int(s.settings.beam_max_level),
+                     **({} if s.settings.target_error is None else
+                        {"target_error": float(s.settings.target_error)})},
     }
 
 

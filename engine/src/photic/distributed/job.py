@@ -310,6 +310,15 @@ def load_job(path, export_blend=None) -> Job:
     return parse_job(doc, path.resolve().parent, path, export_blend)
 
 
+def item_target(job: Job, item: Item) -> float | None:
+    """The relative standard error an item's rounds aim at: the job's ``target_rel_stderr``,
+    else the item's scene's ``settings.target_error`` (a scene rendered from Blender or a scene
+    file with its own target); None: one round."""
+    if job.target_rel_stderr is not None:
+        return job.target_rel_stderr
+    return item.scene.settings.target_error if item.scene.all_radiometers() else None
+
+
 def rounds_needed(done_rounds: int, worst_rel_stderr: float, target: float, max_rounds: int) -> int:
     """Rounds to add so that the worst relative standard error reaches ``target`` (it falls
     as 1/sqrt(rounds)); 0 when it has or ``max_rounds`` is reached."""

@@ -23,7 +23,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..output import write_outputs
-from .job import Item, Job, rounds_needed
+from .job import Item, Job, item_target, rounds_needed
 from .store import UnitStore
 from .units import (ItemMerger, Unit, clear_core_cache, compute_unit, merge_order, plan_round,
                     unit_spec, worst_rel_stderr)
@@ -236,9 +236,10 @@ def run_job(job: Job, out=None, *, scheduler: str | None = None, workers: int | 
                "files": st.files, "failed_units": st.failed}
         if st.worst is not None:
             doc["worst_rel_stderr"] = st.worst
-            if job.target_rel_stderr is not None:
-                doc["target_rel_stderr"] = job.target_rel_stderr
-                doc["target_met"] = st.worst <= job.target_rel_stderr
+            target = item_target(job, it)
+            if target is not None:
+                doc["target_rel_stderr"] = target
+                doc["target_met"] = st.worst <= target
         if st.merged is not None:
             doc["counters"] = {k: st.merged.stats[k] for k in ("segments", "shadow_rays", "paths")}
             doc["unit_time_s"] = st.merged.stats["time_s"]
@@ -281,8 +282,9 @@ def run_job(job: Job, out=None, *, scheduler: str | None = None, workers: int | 
             st.merged = result
             st.worst = worst_rel_stderr(result) if result.radiometers else None
             add = 0
-            if job.target_rel_stderr is not None and st.worst is not None:
-                add = rounds_needed(st.rounds, st.worst, job.target_rel_stderr, job.max_rounds)
+            target = item_target(job, st.item)
+            if target is not None and st.worst is not None:
+                add = rounds_needed(st.rounds, st.worst, target, job.max_rounds)
             if add:
                 new = []
                 for r in range(st.rounds, st.rounds + add):

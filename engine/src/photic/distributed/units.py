@@ -33,7 +33,7 @@ from ..compile import band_groups, compile_scene
 from ..estimates import CameraSums, RadiometerSums
 from ..render import (COMPONENTS, ImageResult, RenderResult, _mean_stderr, build_pass_beams,
                       camera_passes, flag_exact_mode_below_waves, image_result, radiometer_passes,
-                      radiometer_result, uses_beams)
+                      radiometer_result, round_seed, uses_beams)
 from .job import Item, Job
 
 NC = len(COMPONENTS) + 1      # the core's layout: total, then the components
@@ -58,14 +58,6 @@ class Unit:
         tile = f"_t{self.tile}" if self.tile >= 0 else ""
         return (f"r{self.round}_g{self.group}_{self.kind[:3]}{self.sensor}{tile}"
                 f"_p{self.first:04d}-{self.last - 1:04d}")
-
-
-def round_seed(seed: int, rnd: int) -> int:
-    """The seed of round ``rnd`` (round 0 keeps the item's seed, so it equals a plain render)."""
-    if rnd == 0:
-        return seed
-    state = np.random.SeedSequence([seed, 0x5EED, rnd]).generate_state(2, np.uint32)
-    return int((int(state[0]) << 32 | int(state[1])) & ((1 << 63) - 1))
 
 
 def tile_rects(width: int, height: int, tile: int) -> list[tuple[int, int, int, int]]:
