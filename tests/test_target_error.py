@@ -162,3 +162,39 @@ def test_round_sizes_and_worst_error():
     assert worst_relative_error(m, np.array([[0.01, 0.0, 0.01]])) == pytest.approx(0.01)
     assert worst_relative_error(m, np.array([[0.01, 0.1, 0.01]])) == np.inf
     assert worst_relative_error(np.zeros((1, 2)), np.zeros((1, 2))) == 0.0
+
+
+def test_per_radiometer_targets():
+    """``radiometer_targets``: each named radiometer stops at its own target; one without a
+    target takes all its samples; the others' rounds do not drag a quick one along."""
+    sc = calibration_scene("flat", 30.0, 3.0, 1, False)
+    res = render(sc, radiometer_samples=100_000, threads=2,
+                 radiometer_targets={"Ed_1": 0.001, "Eo_5": 0.05})
+    r = {x.name: x for x in res.radiometers}
+    assert r["Ed_1"].target_reached and r["Ed_1"].relative_error <= 0.001
+    assert r["Eo_5"].target_reached and r["Eo_5"].samples == FIRST_ROUND
+    assert r["Ed_1"].samples > FIRST_ROUND
+    for name in ("Eo_1", "Ed_5"):
+        assert r[name].samples == 100_000 and r[name].target_error is None
+    with pytest.raises(SceneError, match="Ed_9"):
+        render(sc, radiometer_samples=1024, radiometer_targets={"Ed_9": 0.01})
+    with pytest.raises(SceneError, match="Ed_1"):
+        render(sc, radiometer_samples=1024, radiometer_targets={"Ed_1": 0.0})
+
+
+def test_problems_stop_at_a_third_of_their_band():
+    """``photic problems``: each radiometer's target is a third of its pass band; it stops
+    there (or at the file's count) and passes."""
+    from photic.problems import band_targets, reference_table, run_problem
+    from photic.scene import load_scene
+    refs = reference_table()
+    scene = load_scene(Path(__file__).resolve().parents[1] / "examples" / "problems"
+                       / "mobley1993_problem1_omega0.2.json")
+    records = run_problem(scene, 1, 0.2, refs, samples=200_000, threads=2)
+    targets = band_targets(1, 0.2, refs)
+    for rec in records:
+        name = f"{rec['quantity']}_tau{rec['tau']:g}"
+        assert rec["target_error"] == pytest.approx(targets[name])
+        assert rec["passed"], rec
+        assert rec["stderr"] <= rec["target_error"] * abs(rec["value"]) or rec["samples"] == 200_000
+    assert min(r["samples"] for r in records) < 200_000

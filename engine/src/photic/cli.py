@@ -193,7 +193,7 @@ def cmd_problems(args) -> int:
         scene = load_scene(path) if path.exists() else Scene.from_dict(problem_scene(problem, omega0))
         cone = None if args.forward_cone is None else (args.forward_cone if args.forward_cone == "auto" else float(args.forward_cone))
         records += run_problem(scene, problem, omega0, refs, samples=args.samples, threads=args.threads,
-                               forward_cone_deg=cone)
+                               forward_cone_deg=cone, adaptive=not args.fixed)
         if not args.json:
             print(f"problem {problem}, omega0 {omega0:g}: done in {records[-1]['seconds']:.1f} s", file=sys.stderr)
     if args.json:
@@ -406,7 +406,11 @@ def build_parser() -> argparse.ArgumentParser:
     pr.add_argument("--scenes", default=str(Path(__file__).resolve().parents[3] / "examples" / "problems"),
                     help="folder with the problems' scene files (default: the repository's examples/problems)")
     pr.add_argument("--problem", type=int, nargs="+", choices=[1, 2], help="only these problems")
-    pr.add_argument("--samples", type=int, default=None, help="samples per radiometer (default: the files')")
+    pr.add_argument("--samples", type=int, default=None,
+                    help="samples per radiometer, the most one takes (default: the files')")
+    pr.add_argument("--fixed", action="store_true",
+                    help="every radiometer takes all its samples (default: each stops when its "
+                         "standard error is a third of its pass band, 2 CV + 0.005)")
     pr.add_argument("--threads", type=int, default=None, help="threads, 0 = all cores")
     pr.add_argument("--forward-cone", default=None, help="forward cone half-angle in degrees, or auto")
     pr.add_argument("--json", action="store_true",

@@ -26,6 +26,7 @@ MIN_PAIRED_PASSES = 8      # paired strata: at least 4 pairs (photic.estimates.M
 FIRST_ROUND = 4096         # target error: samples per radiometer of the first round
 MIN_ROUND = 1024           # ... and at least this many in each further round
 ROUND_MARGIN = 1.1         # ... which asks for this much more than the error's N^-1/2 predicts
+ROUND_GROUPING = 1.5       # radiometers needing within this factor of a round's size join it
 UNITS_RADIANCE = "W m^-2 sr^-1 (per unit of the band's source spectrum, e.g. nm^-1)"
 UNITS_IRRADIANCE = "W m^-2 (per unit of the band's source spectrum, e.g. nm^-1)"
 IRRADIANCE_QUANTITIES = {"Ed", "Eu", "Eo", "Eod", "Eou"}
@@ -359,19 +360,34 @@ def radiometer_result(r, medium: str, rounds: list[RadiometerSums]) -> Radiomete
                             reliable=est["reliable"], notes=list(est["notes"]), vov=est["vov"])
 
 
+def _check_target(owner: str, field: str, value) -> float | None:
+    if value is None:
+        return None
+    try:
+        te = float(value)
+    except (TypeError, ValueError):
+        te = float("nan")
+    if isinstance(value, bool) or not 0.0 < te < 1.0:
+        raise SceneError(owner, field, f"must be a relative error between 0 and 1 (0.01 = 1 %), "
+                                       f"got {value!r}")
+    return te
+
+
 class Renderer:
     """Renders a validated scene progressively.
 
     Parameters override the scene's settings: ``samples`` per pixel, ``radiometer_samples`` per
     radiometer, ``seed``, ``threads`` (0 = all cores), ``target_error`` (a relative standard
     error at which each radiometer stops, ``radiometer_samples`` then being the most it may
-    take; None: every radiometer takes all its samples).
+    take; None: every radiometer takes all its samples) and ``radiometer_targets`` (radiometer
+    name -> its own target error, over ``target_error``).
     """
 
     _UNSET = object()
 
     def __init__(self, scene: Scene, samples: int | None = None, radiometer_samples: int | None = None,
-                 seed: int | None = None, threads: int | None = None, target_error=_UNSET):
+                 seed: int | None = None, threads: int | None = None, target_error=_UNSET,
+                 radiometer_targets: dict | None = None):
         scene.validate()
         st = scene.settings
         self.integrator = resolve_integrator(scene)
@@ -387,13 +403,15 @@ class Renderer:
                 raise SceneError("settings", what, f"must be in 1..{hi}, got {value}")
         if not 0 <= self.threads <= 1024:
             raise SceneError("settings", "threads", f"must be in 0..1024, got {self.threads}")
-        te = st.target_error if target_error is Renderer._UNSET else target_error
-        if te is not None:
-            te = float(te)
-            if not 0.0 < te < 1.0:
-                raise SceneError("settings", "target_error",
-                                 f"must be a relative error between 0 and 1 (0.01 = 1 %), got {te!r}")
-        self.target_error = te
+        self.target_error = _check_target(
+            "settings", "target_error", st.target_error if target_error is Renderer._UNSET else target_error)
+        names = {r.name for r in scene.all_radiometers()}
+        self.radiometer_targets = {}
+        for name, value in (radiometer_targets or {}).items():
+            if name not in names:
+                raise SceneError("radiometers", name, "has a target error but is no radiometer "
+                                                     f"of the scene (there are {len(names)})")
+            self.radiometer_targets[name] = _check_target("radiometers", name, value)
         self._cancel = threading.Event()
         self._core = None
         # Running sums of the cameras, readable while rendering (snapshot) under the lock.
@@ -446,6 +464,8 @@ class Renderer:
         rad_rounds: list[dict] = [{} for _ in radiometers]
         nbins_of = [0] * len(radiometers)
         rounds_run = 0
+        targets = [self.radiometer_targets.get(r.name, self.target_error) for r in radiometers]
+        adaptive = any(t is not None for t in targets)
         total_work = len(groups) * (sum(c.resolution[0] * c.resolution[1] * self.samples for c in scene.cameras)
                                     + len(radiometers) * self.radiometer_samples)
         done_work = 0
@@ -512,17 +532,24 @@ class Renderer:
                 if cancelled:
                     break
             # Radiometers: in rounds (one without a target error), each pass after pass for
-            # all radiometers still running with the same beams (one build per pass serves them
-            # all); the passes of a round are paired strata of the sun's disk.
-            active = list(range(len(radiometers)))
-            rnd, size, done = 0, self.radiometer_samples, 0
-            if self.target_error is not None:
-                size = min(size, FIRST_ROUND)
-            while active and size > 0 and not cancelled:
+            # all radiometers of the round with the same beams (one build per pass serves them
+            # all); the passes of a round are paired strata of the sun's disk. With targets,
+            # a radiometer that needs more samples joins the next round of those needing about
+            # as many (at most ROUND_GROUPING times its need), so one slow radiometer does not
+            # drag the others along.
+            done = [0] * len(radiometers)
+            pending = {ri: (min(self.radiometer_samples, FIRST_ROUND) if adaptive
+                            else self.radiometer_samples) for ri in range(len(radiometers))}
+            rnd = 0
+            while pending and not cancelled:
+                size = max(pending.values())
+                active = [ri for ri in sorted(pending) if pending[ri] * ROUND_GROUPING >= size]
+                for ri in active:
+                    del pending[ri]
                 seed = round_seed(self.seed, rnd)
                 core.seed = seed
                 passes = radiometer_passes(size, beams)
-                key = (gi if self.target_error is not None else 0, rnd)
+                key = (gi if adaptive else 0, rnd)
                 for ri in active:
                     rad_rounds[ri].setdefault(key, RadiometerSums(
                         (nbins_of[ri], nc, nb), beams, len(passes) // 2))
@@ -542,24 +569,23 @@ class Renderer:
                             done_work += n
                     if cancelled:
                         break
-                    report(f"radiometers: {done + start + n}/{self.radiometer_samples} samples"
-                           + (f" (round {rnd + 1})" if self.target_error is not None else ""))
-                done += size
+                    report(f"radiometers: {done[active[0]] + start + n}/{self.radiometer_samples} "
+                           "samples" + (f" (round {rnd + 1})" if adaptive else ""))
                 rnd += 1
-                if self.target_error is None or cancelled:
+                if not adaptive or cancelled:
                     break
                 # Who goes on: those whose worst relative error in this group is above the
-                # target (or not yet to be trusted), for the most samples any of them needs.
-                sizes = {}
+                # target (or not yet to be trusted), for the samples each needs.
                 for ri in active:
+                    done[ri] += size
                     est = combine_round_sums(list(rad_rounds[ri].values()))
                     rel = worst_relative_error(est["mean"][:, 0, g], est["stderr"][:, 0, g])
                     trusted = bool(np.all(est["reliable"][:, g]))
-                    sizes[ri] = next_round_samples(done, rel, self.target_error, trusted,
-                                                   self.radiometer_samples - done)
-                active = [ri for ri in active if sizes[ri] > 0]
-                size = max(sizes.values(), default=0)
-                rounds_run = max(rounds_run, rnd)
+                    left = self.radiometer_samples - done[ri]
+                    need = (left if targets[ri] is None else
+                            next_round_samples(done[ri], rel, targets[ri], trusted, left))
+                    if need > 0:
+                        pending[ri] = need
             rounds_run = max(rounds_run, rnd)
             if cancelled:
                 break
@@ -574,10 +600,10 @@ class Renderer:
                 break
             res = radiometer_result(r, media[ri] or "air", [rad_rounds[ri][k] for k in sorted(rad_rounds[ri])])
             flag_exact_mode_below_waves(res, scene, hybrid, self.forward_cone_deg, media_index[ri])
-            if self.target_error is not None:
-                res.target_error = self.target_error
+            if targets[ri] is not None:
+                res.target_error = targets[ri]
                 res.relative_error = worst_relative_error(res.mean, res.stderr)
-                res.target_reached = bool(res.relative_error <= self.target_error
+                res.target_reached = bool(res.relative_error <= targets[ri]
                                           and np.all(res.reliable) and not cancelled)
                 reached += res.target_reached
             result.radiometers.append(res)
@@ -589,7 +615,7 @@ class Renderer:
                             forward_cone_deg=self.forward_cone_deg,
                             beam_passes=beam_stats["passes"], beam_prisms=beam_stats["prisms"],
                             beam_build_s=beam_stats["build_s"])
-        if self.target_error is not None:
+        if adaptive:
             result.stats.update(target_error=self.target_error, rounds=rounds_run,
                                 target_reached=reached)
         return result
