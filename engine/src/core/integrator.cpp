@@ -481,11 +481,16 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     }
                 }
             }
+            // The beams covering the point: their light on the surface, and the brightest one
+            // guides the continuation below (the same lookup serves both).
+            bool have_bd = false;
+            Vec3 bd;
             if (hybrid && medium >= 0) {
                 // The refracted sun on an underwater surface: every beam covering the point.
                 flush(waters[medium]);
                 thread_local BeamSample beams[kMaxBeams];  // per thread: not zeroed per path (10 kB)
                 int nbm = beams_at(xo, medium, beams, kMaxBeams);
+                have_bd = has_beams() && brightest(beams, nbm, &bd);
                 for (int j = 0; j < nbm; ++j) {
                     double cs = -dot(beams[j].d, n);
                     if (cs <= 0.0) continue;
@@ -497,9 +502,8 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             beam_covered = hybrid && medium >= 0;
             double u1 = rng.uniform(), u2 = rng.uniform();
             Vec3 nd = cosine_hemisphere(n, u1, u2);
-            Vec3 bd;
             double scale = 1.0;  // the continuation's cosine lobe over its pdf (guided: <= 1/(1 - kBeamGuide))
-            if (hybrid && medium >= 0 && has_beams() && strongest_beam(xo, medium, &bd)) {
+            if (have_bd) {
                 // Beam-scattering MIS as at scattering vertices, with the cosine lobe here, and
                 // in the exact mode the same beam-guided continuation (light reflected off the
                 // floor straight back towards the refracted sun then scatters in both peaks).
