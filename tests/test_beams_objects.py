@@ -192,3 +192,78 @@ def test_hybrid_equals_path_tracing_near_objects(surface_kind, zscore):
                    r.mean[0, 0], p.mean[0, 0], se)
         worst = max(worst, abs(z))
     assert worst < 4.0
+
+
+# --- A water mesh (a tank): which prisms test visibility --------------------------------------
+
+def tank(objects=(), zenith=30.0, azimuth=0.0):
+    """A 4 x 4 x 2 m tank of water (its top in 8 x 8 x 2 triangles) on an opaque floor, with
+    opaque ``objects`` (mesh dicts) in and above it."""
+    water = trimesh.creation.box(extents=(4.0, 4.0, 2.001))
+    water.apply_translation((0.0, 0.0, -1.0005))  # its bottom 1 mm into the floor
+    water = water.subdivide().subdivide().subdivide()
+    fv, ft = box((-3.0, -3.0, -2.2), (3.0, 3.0, -2.0))
+    d = {"photic_scene": 1, "name": "tank",
+         "materials": {"grey": {"type": "lambertian", "reflectance": [0.3]}},
+         "meshes": [{"name": "floor", "material": "grey", "vertices": fv, "triangles": ft}, *objects],
+         "water": [{"name": "tank", "type": "mesh", "vertices": water.vertices.tolist(),
+                    "triangles": water.faces.tolist(),
+                    "iops": {"absorption": [0.1], "b": [0.0], "phase": {"type": "isotropic"}}}],
+         "sun": {"zenith_deg": zenith, "azimuth_deg": azimuth, "irradiance": [1.0],
+                 "angular_diameter_deg": 0.53},
+         "radiometers": [{"name": "r", "quantity": "Ed", "position": [0.0, 0.0, -1.0]}],
+         "settings": {"integrator": "hybrid", "forward_cone_deg": 0}}
+    return Scene.from_dict(d)
+
+
+def opaque_box(name, lo, hi):
+    v, t = box(lo, hi)
+    return {"name": name, "material": "grey", "vertices": v, "triangles": t}
+
+
+def test_tank_prisms_test_shadows_where_objects_may_cut_them():
+    """A thin rod in the water between the vertex rays of the prisms around it, and a small
+    sunshade above the water: no vertex ray meets either, so only the prisms' shadow tests
+    find them. Far from both, no prism tests (they cannot be cut) and the beams equal those
+    of the tank without the objects; in the shadows of the rod and of the shade there is no
+    beam."""
+    zenith = 30.0
+    rod = opaque_box("rod", (0.31, 0.27, -1.5), (0.33, 0.29, -0.5))
+    shade = opaque_box("shade", (0.45, -1.2, 0.5), (0.75, -0.9, 0.52))
+    scenes = {k: tank(objs, zenith) for k, objs in [("free", ()), ("objects", (rod, shade))]}
+    cores = {}
+    for k, s in scenes.items():
+        cores[k] = compile_scene(s, hybrid=True, forward_cone_deg=0.0)
+        cores[k].build_beams(tuple(s.sun.direction), 0)
+    checks = np.asarray(cores["objects"].prism_checks())
+    # most prisms are far from the rod and the shade (the floor they end on does not count)
+    assert checks[:, 0].mean() < 0.5 and checks[:, 1].mean() < 0.5, checks.mean(0)
+
+    d = refracted(zenith, 0.0)
+    s = np.asarray(scenes["free"].sun.direction)
+    z = -1.95
+
+    def total(core, p):  # the beams through the top (the side facing the sun sends others)
+        return sum(e[0] * -dd[2] for dd, e in core.beams_at(tuple(map(float, p)), 0) if np.dot(dd, d) > 0.999)
+
+    def along_beam(p):  # from height z on the beam through p (under water)
+        return p + d * (z - p[2]) / d[2]
+
+    rod_shadow = along_beam(np.array([0.32, 0.28, -1.0]))
+    # the shade's shadow: through the surface at the shade's centre seen from the sun
+    at_surface = np.array([0.6, -1.05, 0.51]) - s * (0.51 / s[2])
+    shade_shadow = along_beam(at_surface)
+    for p in (rod_shadow, shade_shadow):
+        assert total(cores["free"], p) > 0.5
+        assert total(cores["objects"], p) == 0.0, p
+    rng = np.random.default_rng(3)
+    far = 0
+    for _ in range(300):
+        p = np.array([*rng.uniform(-1.9, 1.9, 2), rng.uniform(-1.95, -0.05)])
+        near_rod = np.linalg.norm((along_beam(p) - rod_shadow)[:2]) < 0.6
+        near_shade = np.linalg.norm((along_beam(p) - shade_shadow)[:2]) < 0.6
+        if near_rod or near_shade:
+            continue
+        assert cores["objects"].beams_at(tuple(p), 0) == cores["free"].beams_at(tuple(p), 0), p
+        far += 1
+    assert far > 100

@@ -7,6 +7,7 @@
 // object edge, a shadow), the triangle is subdivided. The irradiance inside a prism at path
 // length l is Phi exp(-c_beam l) / A(l), A the cross-section, so focusing waves give caustics.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <thread>
 #include "optics.h"
@@ -417,7 +418,6 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             P.water = st.water;
             P.periodic = st.periodic;
             P.partial_lit = lit < 3;
-            P.check_visibility = !uniform;
             P.lo = Vec3(kInf, kInf, kInf);
             P.hi = Vec3(-kInf, -kInf, -kInf);
             for (int j = 0; j < 3; ++j)
@@ -425,20 +425,186 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
                     P.lo = Vec3(std::min(P.lo.x, q.x), std::min(P.lo.y, q.y), std::min(P.lo.z, q.z));
                     P.hi = Vec3(std::max(P.hi.x, q.x), std::max(P.hi.y, q.y), std::max(P.hi.z, q.z));
                 }
-            // Periodic prisms are shifted at query time, so any mesh may cut one of their
-            // images (or shade its source from above the water): they test visibility whenever
-            // the scene has meshes (meshes_block skips those far from the query).
-            if (st.periodic && !meshes.empty()) P.check_visibility = true;
-            for (const auto& [lo, hi] : object_boxes)
-                if (lo.x <= P.hi.x && hi.x >= P.lo.x && lo.y <= P.hi.y && hi.y >= P.lo.y &&
-                    lo.z <= P.hi.z && hi.z >= P.lo.z)
-                    P.check_visibility = true;
+            // Which shadow rays its queries need. A prism whose rays end on different surfaces
+            // needs both. Periodic prisms are shifted at query time, so any mesh may cut one of
+            // their images (or shade its source from above the water): they test whenever the
+            // scene has meshes (meshes_block skips those far from the query). A water mesh's
+            // prism whose three rays end on one plane: only where an opaque triangle may stand
+            // in it, or in the sun's path to its source (set_prism_checks). With an ocean too
+            // (whose surface the shadow rays also meet): where an object's box overlaps it.
+            P.check_path = P.check_sun = !uniform || (st.periodic && !meshes.empty());
+            if (uniform && !st.periodic && ocean_water >= 0) {
+                for (const auto& [lo, hi] : object_boxes)
+                    if (lo.x <= P.hi.x && hi.x >= P.lo.x && lo.y <= P.hi.y && hi.y >= P.lo.y &&
+                        lo.z <= P.hi.z && hi.z >= P.lo.z)
+                        P.check_path = P.check_sun = true;
+            } else if (!st.periodic && !object_boxes.empty()) {
+                set_prism_checks(&P, uniform, r[0].id != -1);
+                if (lit < 3) P.check_sun = true;  // shaded in part, by whatever shades it
+            }
             out[ti].push_back(P);
         }
     });
     for (auto& v : out)
         for (auto& p : v) prisms.push_back(p);
     build_grid();
+}
+
+namespace {
+
+// Embree point query: the opaque triangles whose boxes overlap a region's box, up to a cap.
+struct NearTriangles {
+    const Scene* scene;
+    Vec3 lo, hi;
+    std::vector<std::array<Vec3, 3>> tris;
+    bool overflow = false;
+    static constexpr size_t kCap = 64;
+};
+
+bool gather_near_triangle(RTCPointQueryFunctionArguments* args) {
+    auto* q = static_cast<NearTriangles*>(args->userPtr);
+    const MeshRecord& m = q->scene->meshes[args->geomID];
+    if (m.kind != SurfaceKind::kOpaque) return false;
+    std::array<Vec3, 3> t;
+    for (int j = 0; j < 3; ++j) {
+        const float* v = &m.vertices[3 * size_t(m.triangles[3 * size_t(args->primID) + j])];
+        t[j] = Vec3(v[0], v[1], v[2]);
+    }
+    for (int a = 0; a < 3; ++a)
+        if (std::min({t[0][a], t[1][a], t[2][a]}) > q->hi[a] || std::max({t[0][a], t[1][a], t[2][a]}) < q->lo[a])
+            return false;
+    if (q->tris.size() >= NearTriangles::kCap) {  // too many to examine: the answer is "maybe"
+        q->overflow = true;
+        args->query->radius = 0.0f;
+        return true;
+    }
+    q->tris.push_back(t);
+    return false;
+}
+
+}  // namespace
+
+bool Scene::opaque_in_boxes(const std::vector<std::pair<Vec3, Vec3>>& boxes, double tol, const Vec3& plane_n,
+                            const Vec3& plane_p, double plane_tol) const {
+    if (!scene_ || boxes.empty()) return false;
+    NearTriangles q{this, Vec3(kInf, kInf, kInf), Vec3(-kInf, -kInf, -kInf), {}};
+    for (const auto& [lo, hi] : boxes)
+        for (int a = 0; a < 3; ++a) {
+            q.lo[a] = std::min(q.lo[a], lo[a] - tol);
+            q.hi[a] = std::max(q.hi[a], hi[a] + tol);
+        }
+    const Vec3 c = (q.lo + q.hi) * 0.5;
+    RTCPointQuery pq;
+    pq.x = float(c.x); pq.y = float(c.y); pq.z = float(c.z);
+    pq.time = 0.0f;
+    pq.radius = float(0.5 * length(q.hi - q.lo) * (1.0 + 1e-5) + eps_);
+    RTCPointQueryContext ctx;
+    rtcInitPointQueryContext(&ctx);
+    rtcPointQuery(scene_, &pq, &ctx, gather_near_triangle, &q);
+    if (q.overflow) return true;
+    const bool plane = plane_n.x != 0.0 || plane_n.y != 0.0 || plane_n.z != 0.0;
+    for (const auto& t : q.tris) {
+        if (plane && dot(plane_n, t[0] - plane_p) <= plane_tol && dot(plane_n, t[1] - plane_p) <= plane_tol &&
+            dot(plane_n, t[2] - plane_p) <= plane_tol)
+            continue;  // on or behind the excluded plane
+        const Vec3 nt = cross(t[1] - t[0], t[2] - t[0]);
+        const double ntl = length(nt);
+        for (const auto& [lo, hi] : boxes) {
+            bool apart = false;
+            for (int a = 0; a < 3 && !apart; ++a)
+                apart = std::min({t[0][a], t[1][a], t[2][a]}) > hi[a] + tol ||
+                        std::max({t[0][a], t[1][a], t[2][a]}) < lo[a] - tol;
+            if (apart) continue;
+            // The triangle's plane must pass through the box (grown by tol).
+            const Vec3 bc = (lo + hi) * 0.5, he = (hi - lo) * 0.5;
+            const double reach = std::fabs(nt.x) * he.x + std::fabs(nt.y) * he.y + std::fabs(nt.z) * he.z;
+            if (std::fabs(dot(nt, bc - t[0])) <= reach + tol * ntl) return true;
+        }
+    }
+    return false;
+}
+
+void Scene::set_prism_checks(BeamPrism* P, bool uniform, bool ends_on_surface) const {
+    double h0 = kInf, h1 = -kInf, off = 0.0;
+    for (int j = 0; j < 3; ++j) {
+        h0 = std::min(h0, P->mv[j]);
+        h1 = std::max(h1, P->mv[j] + P->md[j] * P->len[j]);
+        off = std::max({off, offset_for(P->v[j]), offset_for(P->v[j] + P->d[j] * P->len[j])});
+    }
+    const double width = std::sqrt(std::max(1e-30, 0.5 * length(cross(P->v[1] - P->v[0], P->v[2] - P->v[0]))));
+    const double tol = 2.0 * off;
+    auto grow = [](std::pair<Vec3, Vec3>& b, const Vec3& q) {
+        for (int a = 0; a < 3; ++a) {
+            b.first[a] = std::min(b.first[a], q[a]);
+            b.second[a] = std::max(b.second[a], q[a]);
+        }
+    };
+    const std::pair<Vec3, Vec3> empty{Vec3(kInf, kInf, kInf), Vec3(-kInf, -kInf, -kInf)};
+    std::vector<std::pair<Vec3, Vec3>> boxes;
+    P->check_path = true;
+    if (uniform) {
+        // The region the first shadow ray can cross: the segments from the query point back
+        // to the source point with the same barycentric coordinates. Those points are
+        // combinations of points on the three vertex rays whose heights along m differ by at
+        // most the source's spread dh, so boxes of the rays between heights ha - dh and
+        // hb + dh cover each slab [ha, hb] of it. The rays' ends lie on one plane (the prism's
+        // end face): an opaque triangle entirely on or behind it cannot cut the prism (the
+        // floor it lights).
+        const double dh = std::max({P->mv[0], P->mv[1], P->mv[2]}) - h0;
+        const int n = std::clamp(int(std::ceil((h1 - h0) / width)), 1, 32);
+        for (int k = 0; k < n; ++k) {
+            const double ha = h0 + (h1 - h0) * k / n - dh, hb = h0 + (h1 - h0) * (k + 1) / n + dh;
+            auto b = empty;
+            for (int j = 0; j < 3; ++j)
+                for (double h : {ha, hb}) {
+                    const double t = std::clamp((h - P->mv[j]) / P->md[j], 0.0, (h1 - P->mv[j]) / P->md[j]);
+                    grow(b, P->v[j] + P->d[j] * t);
+                }
+            boxes.push_back(b);
+        }
+        Vec3 pn, pp;
+        if (ends_on_surface) {
+            const Vec3 e0 = P->v[0] + P->d[0] * P->len[0], e1 = P->v[1] + P->d[1] * P->len[1],
+                       e2 = P->v[2] + P->d[2] * P->len[2];
+            pn = cross(e1 - e0, e2 - e0);
+            const double l = length(pn);
+            if (l > 0.0) {
+                pn = pn * (1.0 / l);
+                if (dot(pn, P->v[0] - e0) < 0.0) pn = -pn;  // towards the source
+                pp = e0;
+            } else {
+                pn = Vec3();
+            }
+        }
+        P->check_path = opaque_in_boxes(boxes, tol, pn, pp, 2.0 * off);
+    }
+    // The second shadow ray goes from the source point towards the sun: the column above the
+    // source triangle, as far as it is inside the meshes' bounds.
+    double t_top = 0.0;
+    for (int j = 0; j < 3; ++j) {
+        double t0 = 0.0, t1 = kInf;
+        for (int a = 0; a < 3; ++a) {
+            const double lo = meshes_lo_[a] - tol, hi = meshes_hi_[a] + tol, o = P->v[j][a], d = beam_sun_dir[a];
+            if (d == 0.0) {
+                if (o < lo || o > hi) t1 = -1.0;
+                continue;
+            }
+            double ta = (lo - o) / d, tb = (hi - o) / d;
+            if (ta > tb) std::swap(ta, tb);
+            t0 = std::max(t0, ta);
+            t1 = std::min(t1, tb);
+        }
+        if (t0 <= t1) t_top = std::max(t_top, t1);
+    }
+    boxes.clear();
+    const int m = std::clamp(int(std::ceil(t_top / width)), 1, 32);
+    for (int k = 0; k < m && t_top > 0.0; ++k) {
+        auto b = empty;
+        for (int j = 0; j < 3; ++j)
+            for (double t : {t_top * k / m, t_top * (k + 1) / m}) grow(b, P->v[j] + beam_sun_dir * t);
+        boxes.push_back(b);
+    }
+    P->check_sun = opaque_in_boxes(boxes, tol, Vec3(), Vec3(), 0.0);
 }
 
 void Scene::build_grid() {
@@ -561,7 +727,7 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
     const Water& w = waters[P.water];
     double src_area = 0.5 * length(cross(P.v[1] - P.v[0], P.v[2] - P.v[0]));
     double a_eff = std::max(std::fabs(S), beam_min_area_fraction * src_area);
-    if (P.check_visibility) {
+    if (P.check_path || P.check_sun) {
         // The light reaching y entered the water at e, the point of the source triangle with
         // y's barycentric coordinates (exactly on the surface, so the shadow rays start on the
         // right side of it: a point extrapolated back along d lies above or below a wavy
@@ -571,7 +737,7 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
         const Vec3 to_e = e - world;
         const double dist = length(to_e);
         const double off = std::max(offset_for(world), offset_for(e));
-        if (dist > 0.0) {
+        if (P.check_path && dist > 0.0) {
             const Vec3 u = to_e * (1.0 / dist);
             // Periodic prisms: only the meshes can block (the surface and bottom repeat with
             // the prism). A water mesh's prism: everything but its own source face.
@@ -580,7 +746,8 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
                 return false;
         }
         const Vec3 q = e + P.n_src * off;
-        if (P.periodic) {
+        if (!P.check_sun) {
+        } else if (P.periodic) {
             if (meshes_block(q, beam_sun_dir, 0.0, kInf)) return false;
             // Wave-shaded corners: the surface's own shadow (else the build's lit test says).
             if (P.partial_lit && occluded_ocean(q, beam_sun_dir)) return false;

@@ -199,6 +199,15 @@ PYBIND11_MODULE(_core, m) {
             }
             return py::make_tuple(v, d, len, phi, hit);
         })
+        .def("prism_checks", [](const Scene& s) {
+            // Per prism, which shadow rays its queries test: (N, 2) of (path, sun).
+            py::array_t<bool> c({py::ssize_t(s.prisms.size()), py::ssize_t(2)});
+            for (size_t i = 0; i < s.prisms.size(); ++i) {
+                c.mutable_at(i, 0) = s.prisms[i].check_path;
+                c.mutable_at(i, 1) = s.prisms[i].check_sun;
+            }
+            return c;
+        })
         .def("add_material", [](Scene& s, DArray refl) {
             s.materials.push_back({to_spectrum(refl, s.nbands, "reflectance")});
             return int(s.materials.size()) - 1;

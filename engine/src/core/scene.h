@@ -283,7 +283,9 @@ struct BeamPrism {
     Vec3 n_src;        // source triangle normal (pointing to the air side)
     Spectrum phi;      // flux entering the water through the triangle, per band
     int water = 0;
-    bool check_visibility = false;  // an object may cut this prism: test a shadow ray
+    // Shadow rays of each query: an object may cut the prism between its source and the query
+    // point (check_path), or shade its source from the sun (check_sun).
+    bool check_path = false, check_sun = false;
     // Below the periodic ocean patch: traced without the scene's meshes (each query shifts the
     // prism into the period it asks about, where other objects stand), so they are met by the
     // shadow rays at query time instead.
@@ -478,6 +480,16 @@ private:
     };
     std::vector<PrismKey> prism_keys_;
     void build_grid();
+    // Whether an opaque triangle may lie in the union of boxes [lo_i, hi_i] (grown by tol),
+    // other than those entirely on or behind the plane through plane_p with normal plane_n
+    // (pointing into the region; plane_n = 0: none excluded). Conservative: true when more
+    // triangles are near than it examines.
+    bool opaque_in_boxes(const std::vector<std::pair<Vec3, Vec3>>& boxes, double tol, const Vec3& plane_n,
+                         const Vec3& plane_p, double plane_tol) const;
+    // A water mesh's prism: its shadow-ray flags from the opaque triangles near its source's
+    // sun column and, for one whose rays end on one plane (uniform: ends_on_surface) or in
+    // open water, near itself (else it always tests the path).
+    void set_prism_checks(BeamPrism* P, bool uniform, bool ends_on_surface) const;
     RTCDevice device_ = nullptr;
     RTCScene scene_ = nullptr;
     RTCScene patch_scene_ = nullptr;
