@@ -623,59 +623,115 @@ void Scene::build_grid() {
         }
     }
     if (prisms.empty()) return;
-    Vec3 lo(kInf, kInf, kInf), hi(-kInf, -kInf, -kInf);
-    std::vector<double> widths;
-    for (const auto& p : prisms) {
-        lo = Vec3(std::min(lo.x, p.lo.x), std::min(lo.y, p.lo.y), std::min(lo.z, p.lo.z));
-        hi = Vec3(std::max(hi.x, p.hi.x), std::max(hi.y, p.hi.y), std::max(hi.z, p.hi.z));
-        widths.push_back(std::sqrt(std::max(1e-30, 0.5 * length(cross(p.v[1] - p.v[0], p.v[2] - p.v[0])))));
-    }
-    std::nth_element(widths.begin(), widths.begin() + widths.size() / 2, widths.end());
-    Vec3 ext = hi - lo;
-    // Cells about twice a typical prism's width, but not so small that the grid has more
-    // than ~32 cells per prism (long, tilted prisms of grazing suns would fill it otherwise).
-    double volume = std::max(1e-30, ext.x * ext.y * ext.z);
-    double cell = std::max({1.0 * widths[widths.size() / 2], std::cbrt(volume / (32.0 * prisms.size())), 1e-6});
-    auto cells = [&](double c) {
-        return (std::floor(ext.x / c) + 1) * (std::floor(ext.y / c) + 1) * (std::floor(ext.z / c) + 1);
+    // The grid is sheared along the beams' typical drift (sx, sy) per metre of depth (the
+    // median over the horizontally sliced prisms' rays): in coordinates u = x + sx z,
+    // v = y + sy z, z a prism stands nearly upright, so cells can be tall (few marks per
+    // prism) and narrow (few candidates per query) at once.
+    std::vector<double> bxs, bys;
+    for (const PrismKey& K : prism_keys_)
+        if (K.horizontal) {
+            bxs.push_back(K.bx[0]);
+            bys.push_back(K.by[0]);
+        }
+    auto median = [](std::vector<double>& v) {
+        std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+        return v[v.size() / 2];
     };
-    while (cells(cell) > double(1 << 21)) cell *= 1.25;
+    const double sx = bxs.empty() ? 0.0 : median(bxs), sy = bys.empty() ? 0.0 : median(bys);
+    grid_.sx = sx;
+    grid_.sy = sy;
+    // Each prism is cut into pieces along its slicing axis; the box (in the sheared frame) of
+    // each piece's six corner points marks its cells. The slices between ha and hb can bulge
+    // out of the box of their end slices only through the lateral faces, which are ruled
+    // surfaces between those points: their convex hull, and so the box, contains them (the
+    // shear, being linear, keeps that).
+    auto piece = [&](const BeamPrism& P, double ha, double hb, Vec3* blo, Vec3* bhi) {
+        *blo = Vec3(kInf, kInf, kInf);
+        *bhi = Vec3(-kInf, -kInf, -kInf);
+        for (int j = 0; j < 3; ++j)
+            for (double h : {ha, hb}) {
+                double t = std::clamp((h - P.mv[j]) / P.md[j], 0.0, P.len[j]);
+                Vec3 q = P.v[j] + P.d[j] * t;
+                q = Vec3(q.x + sx * q.z, q.y + sy * q.z, q.z);
+                *blo = Vec3(std::min(blo->x, q.x), std::min(blo->y, q.y), std::min(blo->z, q.z));
+                *bhi = Vec3(std::max(bhi->x, q.x), std::max(bhi->y, q.y), std::max(bhi->z, q.z));
+            }
+    };
+    auto span = [](const BeamPrism& P, double* h0, double* h1) {
+        *h0 = kInf;
+        *h1 = -kInf;
+        for (int j = 0; j < 3; ++j) {
+            *h0 = std::min(*h0, P.mv[j]);
+            *h1 = std::max(*h1, P.mv[j] + P.md[j] * P.len[j]);
+        }
+    };
+    Vec3 lo(kInf, kInf, kInf), hi(-kInf, -kInf, -kInf);
+    std::vector<double> widths, drifts;
+    for (size_t pi = 0; pi < prisms.size(); ++pi) {
+        const BeamPrism& P = prisms[pi];
+        double h0, h1;
+        span(P, &h0, &h1);
+        Vec3 blo, bhi;
+        piece(P, h0, h1, &blo, &bhi);
+        lo = Vec3(std::min(lo.x, blo.x), std::min(lo.y, blo.y), std::min(lo.z, blo.z));
+        hi = Vec3(std::max(hi.x, bhi.x), std::max(hi.y, bhi.y), std::max(hi.z, bhi.z));
+        widths.push_back(std::sqrt(std::max(1e-30, 0.5 * length(cross(P.v[1] - P.v[0], P.v[2] - P.v[0])))));
+        const PrismKey& K = prism_keys_[pi];
+        if (K.horizontal) {  // how far its rays drift from the shear per metre of depth
+            double dr = 0.0;
+            for (int j = 0; j < 3; ++j) dr = std::max(dr, std::hypot(K.bx[j] - sx, K.by[j] - sy));
+            drifts.push_back(dr);
+        }
+    }
+    const double width = median(widths);
+    const double drift = drifts.empty() ? 1.0 : median(drifts);
+    Vec3 ext = hi - lo;
+    // Cells: across, a typical prism's width; tall enough that a typical prism drifts by half
+    // of that in one cell (narrower or shorter cells: no faster in the stepped pool). Not so
+    // small that the grid has more than ~32 cells per prism (long, tilted prisms of grazing
+    // suns would fill it otherwise).
+    double cxy = std::max(width, 1e-6);
+    double cz = std::clamp(0.5 * width / std::max(drift, 1e-9), cxy, std::max(cxy, ext.z));
+    const double volume = std::max(1e-30, ext.x * ext.y * ext.z);
+    const double min_cell = std::cbrt(volume / (32.0 * prisms.size()));
+    if (cxy * cxy * cz < min_cell * min_cell * min_cell) {
+        const double f = min_cell / std::cbrt(cxy * cxy * cz);
+        cxy *= f;
+        cz *= f;
+    }
+    auto cells = [&]() {
+        return (std::floor(ext.x / cxy) + 1) * (std::floor(ext.y / cxy) + 1) * (std::floor(ext.z / cz) + 1);
+    };
+    while (cells() > double(1 << 21)) {
+        cxy *= 1.25;
+        cz *= 1.25;
+    }
     grid_.lo = lo;
-    grid_.cell = Vec3(cell, cell, cell);
-    grid_.nx = int(std::floor(ext.x / cell)) + 1;
-    grid_.ny = int(std::floor(ext.y / cell)) + 1;
-    grid_.nz = int(std::floor(ext.z / cell)) + 1;
+    grid_.cell = Vec3(cxy, cxy, cz);
+    grid_.nx = int(std::floor(ext.x / cxy)) + 1;
+    grid_.ny = int(std::floor(ext.y / cxy)) + 1;
+    grid_.nz = int(std::floor(ext.z / cz)) + 1;
     size_t ncell = size_t(grid_.nx) * grid_.ny * grid_.nz;
-    // Each prism is cut into pieces along its slicing axis; each piece's box marks its cells.
     // The (cell, prism) marks are collected in prism order, then sorted by cell stably (a
     // counting sort: one allocation, where a list per cell made a build spend a tenth of its
-    // time in malloc and free).
+    // time in malloc and free): a cell lists its prisms in order, so a point's beams are
+    // summed in prism order whatever the cells.
     std::vector<uint32_t> mark_cell, mark_prism;
     std::vector<int64_t> last(ncell, -1);
     for (size_t pi = 0; pi < prisms.size(); ++pi) {
         const BeamPrism& P = prisms[pi];
-        double h0 = kInf, h1 = -kInf;
-        for (int j = 0; j < 3; ++j) {
-            h0 = std::min(h0, P.mv[j]);
-            h1 = std::max(h1, P.mv[j] + P.md[j] * P.len[j]);
-        }
-        int pieces = std::max(1, std::min(100000, int(std::ceil((h1 - h0) / cell))));
+        double h0, h1;
+        span(P, &h0, &h1);
+        // pieces about a cell tall (horizontal slicing) or wide (grazing beams)
+        const double step = prism_keys_[pi].horizontal ? cz : cxy;
+        int pieces = std::max(1, std::min(100000, int(std::ceil((h1 - h0) / step))));
         for (int k = 0; k < pieces; ++k) {
             double ha = h0 + (h1 - h0) * k / pieces, hb = h0 + (h1 - h0) * (k + 1) / pieces;
-            Vec3 blo(kInf, kInf, kInf), bhi(-kInf, -kInf, -kInf);
-            for (int j = 0; j < 3; ++j)
-                for (double h : {ha, hb}) {
-                    double t = std::clamp((h - P.mv[j]) / P.md[j], 0.0, P.len[j]);
-                    Vec3 q = P.v[j] + P.d[j] * t;
-                    blo = Vec3(std::min(blo.x, q.x), std::min(blo.y, q.y), std::min(blo.z, q.z));
-                    bhi = Vec3(std::max(bhi.x, q.x), std::max(bhi.y, q.y), std::max(bhi.z, q.z));
-                }
-            // The slices between ha and hb can bulge out of the box of their end slices only
-            // through the lateral faces, which are ruled surfaces between those points: the box
-            // of the six points contains them.
-            int x0 = std::clamp(int((blo.x - lo.x) / cell), 0, grid_.nx - 1), x1 = std::clamp(int((bhi.x - lo.x) / cell), 0, grid_.nx - 1);
-            int y0 = std::clamp(int((blo.y - lo.y) / cell), 0, grid_.ny - 1), y1 = std::clamp(int((bhi.y - lo.y) / cell), 0, grid_.ny - 1);
-            int z0 = std::clamp(int((blo.z - lo.z) / cell), 0, grid_.nz - 1), z1 = std::clamp(int((bhi.z - lo.z) / cell), 0, grid_.nz - 1);
+            Vec3 blo, bhi;
+            piece(P, ha, hb, &blo, &bhi);
+            int x0 = std::clamp(int((blo.x - lo.x) / cxy), 0, grid_.nx - 1), x1 = std::clamp(int((bhi.x - lo.x) / cxy), 0, grid_.nx - 1);
+            int y0 = std::clamp(int((blo.y - lo.y) / cxy), 0, grid_.ny - 1), y1 = std::clamp(int((bhi.y - lo.y) / cxy), 0, grid_.ny - 1);
+            int z0 = std::clamp(int((blo.z - lo.z) / cz), 0, grid_.nz - 1), z1 = std::clamp(int((bhi.z - lo.z) / cz), 0, grid_.nz - 1);
             for (int z = z0; z <= z1; ++z)
                 for (int y = y0; y <= y1; ++y)
                     for (int x = x0; x <= x1; ++x) {
@@ -816,15 +872,17 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool ex
     bool periodic = ocean_water >= 0 && !ocean_flat && medium == ocean_water;
     long i0 = 0, i1 = 0, j0 = 0, j1 = 0;
     Vec3 ghi = grid_.lo + Vec3(grid_.nx * grid_.cell.x, grid_.ny * grid_.cell.y, grid_.nz * grid_.cell.z);
+    // (in the grid's sheared frame: a shift by whole periods is horizontal there too)
+    const double xu = x.x + grid_.sx * x.z, xv = x.y + grid_.sy * x.z;
     if (periodic) {
-        i0 = long(std::ceil((x.x - ghi.x) / patch_lx)); i1 = long(std::floor((x.x - grid_.lo.x) / patch_lx));
-        j0 = long(std::ceil((x.y - ghi.y) / patch_ly)); j1 = long(std::floor((x.y - grid_.lo.y) / patch_ly));
+        i0 = long(std::ceil((xu - ghi.x) / patch_lx)); i1 = long(std::floor((xu - grid_.lo.x) / patch_lx));
+        j0 = long(std::ceil((xv - ghi.y) / patch_ly)); j1 = long(std::floor((xv - grid_.lo.y) / patch_ly));
     }
     for (long i = i0; i <= i1; ++i)
         for (long j = j0; j <= j1; ++j) {
             Vec3 y = x - Vec3(double(i) * patch_lx, double(j) * patch_ly, 0.0);
-            int cx = int(std::floor((y.x - grid_.lo.x) / grid_.cell.x));
-            int cy = int(std::floor((y.y - grid_.lo.y) / grid_.cell.y));
+            int cx = int(std::floor((xu - double(i) * patch_lx - grid_.lo.x) / grid_.cell.x));
+            int cy = int(std::floor((xv - double(j) * patch_ly - grid_.lo.y) / grid_.cell.y));
             int cz = int(std::floor((y.z - grid_.lo.z) / grid_.cell.z));
             if (cx < 0 || cy < 0 || cz < 0 || cx >= grid_.nx || cy >= grid_.ny || cz >= grid_.nz) continue;
             size_t c = (size_t(cz) * grid_.ny + cy) * grid_.nx + cx;

@@ -464,7 +464,8 @@ public:
                     bool exact = true) const;
 
 private:
-    struct BeamGrid {  // uniform grid over prism bounding boxes (primary patch frame)
+    struct BeamGrid {  // uniform grid over prism pieces (primary patch frame, sheared)
+        double sx = 0.0, sy = 0.0;  // cell (i, j, k) holds u = x + sx z, v = y + sy z, z
         Vec3 lo, cell;
         int nx = 0, ny = 0, nz = 0;
         std::vector<uint32_t> start, items;
