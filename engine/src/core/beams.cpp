@@ -92,6 +92,13 @@ void Scene::set_grid_coefficients(Water& w) const {
         cmean = std::max(cmean, layer_mean);
     }
     w.majorant = std::max(w.majorant, w.grid_majorant(rmax));
+    for (const WaterLayer& B : w.layers)  // b at the densest voxel of every field
+        for (int k = 0; k < nbands; ++k) {
+            double b = B.b.v[k];
+            for (int f = 0; f < nf; ++f)
+                for (const Spectrum& cb : w.grid_units[f].comp_b) b += rmax[f] * cb.v[k];
+            w.b_max = std::max(w.b_max, b);
+        }
     if (!(w.c_path_mean > 0.0)) w.c_path_mean = cmean;  // any rate > 0 is unbiased
     for (size_t ci = 0; ci < w.components.size(); ++ci) {
         double b = 0.0;
@@ -110,6 +117,9 @@ void Scene::set_forward_cone(double half_angle) {
         for (auto& c : w.components) c.f = cone_half_angle > 0.0 ? phases[c.phase].cdf(xc) : 0.0;
         w.majorant = 0.0;
         w.c_beam_min = kInf;
+        w.b_max = 0.0;
+        for (const auto& L : w.layers)
+            for (int k = 0; k < nbands; ++k) w.b_max = std::max(w.b_max, L.b.v[k]);
         double c_mean_min = kInf;
         for (auto& L : w.layers) {
             L.b_path = Spectrum();
@@ -812,6 +822,7 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
         }
     }
     out->d = d;
+    out->l = l;
     if (!w.varying() || !exact) {
         const Spectrum& c = w.layers[0].c_beam;
         for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * std::exp(-c.v[k] * l) / (a_eff * md);
@@ -844,6 +855,7 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool ex
             }
             if (visible) {
                 out[n].d = fd;
+                out[n].l = l;
                 if (!w.varying() || !exact) {
                     const Spectrum& c = w.layers[0].c_beam;
                     for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * std::exp(-c.v[k] * l);

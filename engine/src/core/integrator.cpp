@@ -109,21 +109,24 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
 
 namespace {
 
-// The direction of the brightest beam (band 0) of a list; false when there is none.
-bool brightest(const BeamSample* beams, int n, Vec3* d) {
+// The brightest beam (band 0) of a list, or null when there is none.
+const BeamSample* brightest(const BeamSample* beams, int n) {
     double best = 0.0;
+    const BeamSample* b = nullptr;
     for (int j = 0; j < n; ++j)
-        if (beams[j].e.v[0] > best) { best = beams[j].e.v[0]; *d = beams[j].d; }
-    return best > 0.0;
+        if (beams[j].e.v[0] > best) { best = beams[j].e.v[0]; b = &beams[j]; }
+    return b;
 }
 
 }  // namespace
 
-bool Scene::strongest_beam(const Vec3& x, int medium, Vec3* d) const {
+bool Scene::strongest_beam(const Vec3& x, int medium, BeamSample* beam) const {
     // Only a ranking for the MIS direction (any deterministic choice is unbiased): no walks
     // through layers or voxels. A per-thread buffer: zeroing 64 spectra per call costs.
     thread_local BeamSample beams[kMaxBeams];
-    return brightest(beams, beams_at(x, medium, beams, kMaxBeams, false), d);
+    const BeamSample* b = brightest(beams, beams_at(x, medium, beams, kMaxBeams, false));
+    if (b) *beam = *b;
+    return b != nullptr;
 }
 
 double Scene::beam_direction_pdf(const Water& w, const Vec3& beam_d, const Vec3& omega) const {
@@ -147,7 +150,7 @@ Vec3 Scene::sample_beam_direction(const Water& w, const Vec3& beam_d, Rng& rng) 
 }
 
 Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
-                        Counters& c, double first_beam_weight) const {
+                        Counters& c, double first_beam_weight, bool camera) const {
     const int nb = nbands;
     Components out;
     Spectrum beta = Spectrum::constant(1.0);
@@ -390,24 +393,29 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 double u1 = sc.f + rng.uniform() * (1.0 - sc.f), u2 = rng.uniform();
                 Vec3 nd = phases[sc.phase].sample_direction(d, u1, u2);
                 Spectrum beta_pre = beta;
-                Vec3 bd;
-                const bool beams_here = hybrid && has_beams() && strongest_beam(o, medium, &bd);
-                // Beam-guided continuation (exact mode, forward cone 0): a fraction kBeamGuide
-                // of the paths here go on in a direction drawn from the phase function around
-                // the beam's reverse instead, weighted by the mixture's pdf (at most 1 /
-                // (1 - kBeamGuide) times the phase function's weight). A path then arrives near
-                // the refracted sun's reverse as often as its forward peak sends light there,
-                // so the next vertex's beam term, which multiplies two forward peaks, no longer
-                // makes rare huge samples (the exact mode's heavy tails).
+                BeamSample bs;
+                const bool beams_here = hybrid && has_beams() && strongest_beam(o, medium, &bs);
+                const Vec3 bd = bs.d;
+                // The share qb of the beam-direction samples here (beam_mis_share: 1 unless
+                // the water is clear along the beam).
+                const double qb = !beams_here ? 0.0 : camera ? beam_mis_share(w, bs) : 1.0;
+                // Beam-guided continuation (exact mode, forward cone 0): a fraction
+                // kBeamGuide qb of the paths here go on in a direction drawn from the phase
+                // function around the beam's reverse instead, weighted by the mixture's pdf (at
+                // most 1 / (1 - kBeamGuide) times the phase function's weight). A path then
+                // arrives near the refracted sun's reverse as often as its forward peak sends
+                // light there, so the next vertex's beam term, which multiplies two forward
+                // peaks, no longer makes rare huge samples (the exact mode's heavy tails).
                 const bool guide = beams_here && cone_x == 0.0;
-                if (guide && rng.uniform() < kBeamGuide) nd = sample_beam_direction(w, bd, rng);
+                const double gp = kBeamGuide * qb;
+                if (guide && rng.uniform() < gp) nd = sample_beam_direction(w, bd, rng);
                 double pa = 0.0;
                 if (nc > 1 || beams_here) {
                     eval_components(nd);
                     pa = pdf_a();
                 }
                 auto mixture = [&](double pa_v, double pb_v) {  // the continuation's pdf
-                    return guide ? (1.0 - kBeamGuide) * pa_v + kBeamGuide * pb_v : pa_v;
+                    return guide ? (1.0 - gp) * pa_v + gp * pb_v : pa_v;
                 };
                 const double pmix = beams_here ? mixture(pa, beam_direction_pdf(w, bd, nd)) : pa;
                 if (nc > 1 || guide)
@@ -415,18 +423,24 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 if (beams_here) {
                     // Beam-scattering MIS: the next segment's beam term (directions from the
                     // continuation's pdf here) is weighted against a second direction drawn from
-                    // the phase function around the beam (the forward peak at the next point).
+                    // the phase function around the beam (the forward peak at the next point),
+                    // taken with probability qb (balance heuristic with q samples expected).
                     double pb = beam_direction_pdf(w, bd, nd);
-                    bv_weight = pmix / (pmix + pb);
-                    Vec3 wb = sample_beam_direction(w, bd, rng);
-                    eval_components(wb);
-                    double pa_b = pdf_a(), pb_b = beam_direction_pdf(w, bd, wb);
+                    bv_weight = pmix / (pmix + qb * pb);
+                    Vec3 wb;
+                    double pa_b = 0.0, pb_b = 0.0;
+                    if (qb >= 1.0 || rng.uniform() < qb) {
+                        wb = sample_beam_direction(w, bd, rng);
+                        eval_components(wb);
+                        pa_b = pdf_a();
+                        pb_b = beam_direction_pdf(w, bd, wb);
+                    }
                     if (pa_b > 0.0) {
                         Hit hb = intersect(o, wb);
                         c.segments++;
                         Spectrum I;
                         beam_scatter_along(o, wb, hb.valid ? hb.t : kInf, medium, rng, &I);
-                        const double den = mixture(pa_b, pb_b) + pb_b;
+                        const double den = mixture(pa_b, pb_b) + qb * pb_b;
                         for (int k = 0; k < nb; ++k)
                             out.beam_volume.v[k] += beta_pre.v[k] * band_phase(k) * absorbed(w, k) * I.v[k] / den;
                     }
@@ -483,14 +497,13 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             }
             // The beams covering the point: their light on the surface, and the brightest one
             // guides the continuation below (the same lookup serves both).
-            bool have_bd = false;
-            Vec3 bd;
+            const BeamSample* best = nullptr;
+            thread_local BeamSample beams[kMaxBeams];  // per thread: not zeroed per path (10 kB)
             if (hybrid && medium >= 0) {
                 // The refracted sun on an underwater surface: every beam covering the point.
                 flush(waters[medium]);
-                thread_local BeamSample beams[kMaxBeams];  // per thread: not zeroed per path (10 kB)
                 int nbm = beams_at(xo, medium, beams, kMaxBeams);
-                have_bd = has_beams() && brightest(beams, nbm, &bd);
+                if (has_beams()) best = brightest(beams, nbm);
                 for (int j = 0; j < nbm; ++j) {
                     double cs = -dot(beams[j].d, n);
                     if (cs <= 0.0) continue;
@@ -503,29 +516,37 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             double u1 = rng.uniform(), u2 = rng.uniform();
             Vec3 nd = cosine_hemisphere(n, u1, u2);
             double scale = 1.0;  // the continuation's cosine lobe over its pdf (guided: <= 1/(1 - kBeamGuide))
-            if (have_bd) {
+            if (best) {
                 // Beam-scattering MIS as at scattering vertices, with the cosine lobe here, and
                 // in the exact mode the same beam-guided continuation (light reflected off the
-                // floor straight back towards the refracted sun then scatters in both peaks).
+                // floor straight back towards the refracted sun then scatters in both peaks),
+                // both as often as the water along the beam makes them worth it.
                 const Water& w = waters[medium];
+                const Vec3 bd = best->d;
+                const double q = camera ? beam_mis_share(w, *best) : 1.0;
                 const bool guide = cone_half_angle == 0.0;
-                if (guide && rng.uniform() < kBeamGuide) nd = sample_beam_direction(w, bd, rng);
+                const double gp = kBeamGuide * q;
+                if (guide && rng.uniform() < gp) nd = sample_beam_direction(w, bd, rng);
                 auto mixture = [&](double pa_v, double pb_v) {
-                    return guide ? (1.0 - kBeamGuide) * pa_v + kBeamGuide * pb_v : pa_v;
+                    return guide ? (1.0 - gp) * pa_v + gp * pb_v : pa_v;
                 };
                 double pa = std::max(0.0, dot(n, nd)) * kInvPi, pb = beam_direction_pdf(w, bd, nd);
                 const double pm = mixture(pa, pb);
                 if (guide) scale = pm > 0.0 ? pa / pm : 0.0;
-                bv_weight = pm / (pm + pb);
-                Vec3 wb = sample_beam_direction(w, bd, rng);
-                double cb = dot(n, wb);
+                bv_weight = pm / (pm + q * pb);
+                Vec3 wb;
+                double cb = 0.0;
+                if (q >= 1.0 || rng.uniform() < q) {
+                    wb = sample_beam_direction(w, bd, rng);
+                    cb = dot(n, wb);
+                }
                 if (cb > 0.0) {
                     double pa_b = cb * kInvPi, pb_b = beam_direction_pdf(w, bd, wb);
                     Hit hb = intersect(xo, wb);
                     c.segments++;
                     Spectrum I;
                     beam_scatter_along(xo, wb, hb.valid ? hb.t : kInf, medium, rng, &I);
-                    const double den = mixture(pa_b, pb_b) + pb_b;
+                    const double den = mixture(pa_b, pb_b) + q * pb_b;
                     for (int k = 0; k < nb; ++k)
                         out.beam_volume.v[k] += beta.v[k] * m.reflectance.v[k] * cb * kInvPi * I.v[k] / den;
                 }
@@ -679,7 +700,7 @@ void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
                                   cam.up * (sy * cam.tan_half_fov));
                     o = cam.position + d * (cam.clip_start / dot(d, cam.forward));
                 }
-                Components L = trace(o, d, cam.medium, false, false, rng, cnt);
+                Components L = trace(o, d, cam.medium, false, false, rng, cnt, 1.0, true);
                 Spectrum comp[kNumComponents] = {Spectrum(), L.beam_surface, L.beam_volume, L.path, Spectrum()};
                 accumulate(comp, nb, s, s2);
             }
@@ -748,11 +769,11 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
     bool sensor_nee = has_sun && r.medium < 0;
     bool sensor_beams = hybrid && r.medium >= 0;
     double first_weight = 1.0;
-    Vec3 bd;
     // The beams at the radiometer serve both the MIS below and the closed-form direct term.
     const BeamSample* beams = at_sensor;
     const int nbeams = sensor_beams ? n_at_sensor : 0;
-    if (brightest(beams, nbeams, &bd)) {
+    if (const BeamSample* best = brightest(beams, nbeams)) {
+        const Vec3 bd = best->d;
         // Beam-scattering MIS for the first segment: the sensor's own directions against
         // directions drawn from the phase function around the beam (looking towards the sun).
         const Water& wat = waters[r.medium];

@@ -67,6 +67,7 @@ struct Water {
     double a_min = 0.0;                  // smallest absorption over the bands and layers
     double c_path_mean = 0.0;            // homogeneous: the layer's; stratified: smallest > 0
     double c_beam_min = 0.0;             // smallest beam attenuation over bands and layers
+    double b_max = 0.0;                  // largest b (all scattering) over bands, layers, voxels
     double mis_bsum = 0.0;               // sum of all b (beam-direction MIS sampling)
     double mis_wsum = 0.0;               // sum of the components' weights (its pdf)
 
@@ -270,6 +271,7 @@ struct Camera {
 struct BeamSample {
     Vec3 d;
     Spectrum e;
+    double l = 0.0;  // its path length in the water, from where it entered to the point
 };
 
 // A prism of refracted sunlight below one water-surface triangle (Watt 1990; Nishita &
@@ -418,8 +420,10 @@ public:
     // sun_covered: NEE already counted the sun seen straight from o; beam_covered: the beams
     // already count the refracted sun reaching o straight (hybrid).
     // first_beam_weight: MIS weight of the first segment's beam scattering (radiometers).
+    // camera: a pixel's path, whose beam-direction samples follow beam_mis_share (a
+    // radiometer's always take them: its other noise is small, so they pay even in clear water).
     Components trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
-                     Counters& c, double first_beam_weight = 1.0) const;
+                     Counters& c, double first_beam_weight = 1.0, bool camera = false) const;
     bool has_beams() const { return flat_beam || !prisms.empty(); }
     // Beam single scattering seen from o along d over [0, T] in water `medium` (per band,
     // without the throughput), one distance sample.
@@ -427,7 +431,17 @@ public:
     // that point's distance stored here, for a caller who walks the segment anyway.
     void beam_scatter_along(const Vec3& o, const Vec3& d, double T, int medium, Rng& rng, Spectrum* out,
                             double* deferred_t = nullptr) const;
-    bool strongest_beam(const Vec3& x, int medium, Vec3* d) const;
+    bool strongest_beam(const Vec3& x, int medium, BeamSample* beam) const;
+    // How often a camera path at a point lit by `beam` tries the beam's reverse direction: the
+    // probability of the beam-scattering MIS's second sample (and, times kBeamGuide, of a
+    // beam-guided continuation in the exact mode). Both serve the light that the beam scatters
+    // in the phase function's forward peak, at most about b l of the beam's own (l: its path
+    // in the water): 1 where the water scatters at least once along the beam, less in clear
+    // water, where they mostly cost rays and lookups for light that a pixel's other noise
+    // drowns.
+    double beam_mis_share(const Water& w, const BeamSample& beam) const {
+        return std::min(1.0, w.b_max * beam.l);
+    }
     // The second strategy of the beam-scattering MIS: look directions drawn from the water's
     // phase function around the beam's reverse direction (the forward peak of natural waters).
     double beam_direction_pdf(const Water& w, const Vec3& beam_d, const Vec3& omega) const;
