@@ -37,7 +37,11 @@ PhaseFunction PhaseFunction::table(const std::vector<double>& x, const std::vect
     for (auto& c : p.cdf_) c /= total;
     for (auto& val : p.v_) val /= total;
     p.cdf_.back() = 1.0;
-    const size_t G = 512;
+    // Guide bins fine enough that a bin's u range mostly lies in one CDF segment (Petzold's
+    // 1,041 nodes: 0.25 per bin on average, 32 at most in the tail, against 2 and 132 with
+    // 512 bins), so sampling usually reads one segment: a tenth of a path segment's time
+    // went to the search before.
+    const size_t G = 4096;
     p.guide_.resize(G + 1);
     for (size_t j = 0; j <= G; ++j) {
         double u = double(j) / G;
@@ -146,10 +150,12 @@ double PhaseFunction::sample_x(double u) const {
         case kTable: {
             size_t G = guide_.size() - 1;
             size_t j = std::min(G - 1, size_t(u * G));
-            auto lo = cdf_.begin() + std::max<ptrdiff_t>(ptrdiff_t(guide_[j]) - 1, 0);
-            auto hi = cdf_.begin() + std::min<size_t>(guide_[j + 1] + 1, cdf_.size());
-            auto it = std::upper_bound(lo, hi, u);
-            size_t i = std::min<size_t>(std::max<ptrdiff_t>(it - cdf_.begin(), 1), cdf_.size() - 1);
+            // The first node above u (as upper_bound) lies in [guide_[j] - 1, guide_[j + 1] + 1):
+            // a scan from its start.
+            const size_t n = cdf_.size(), end = std::min<size_t>(guide_[j + 1] + 1, n);
+            size_t k = size_t(std::max<ptrdiff_t>(ptrdiff_t(guide_[j]) - 1, 0));
+            while (k < end && cdf_[k] <= u) ++k;
+            size_t i = std::min<size_t>(std::max<size_t>(k, 1), n - 1);
             double dx = x_[i] - x_[i - 1];
             double v0 = v_[i - 1], slope = (v_[i] - v_[i - 1]) / dx;
             double r = (u - cdf_[i - 1]) / (2.0 * kPi);  // area still to cover in this segment
