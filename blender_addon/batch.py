@@ -60,13 +60,15 @@ def export_frames(path, frames=None) -> list:
 def render_blend(path, frame: int | None = None, out_dir=None, samples: int | None = None,
                  radiometer_samples: int | None = None, seed: int | None = None,
                  threads: int | None = None, resolution_percentage: int | None = None,
-                 progress=None, target_error: float | None = None) -> dict:
+                 progress=None, target_error: float | None = None,
+                 noise_threshold: float | None = None) -> dict:
     """Render one frame of a .blend file with Photic.
 
     ``progress(fraction, text)``, when given, is called as the render goes on (a background
     Blender shows nothing). Returns the render summary (``final_render.LAST_RENDER``) with
     ``"image"``: the EXR path. ``target_error`` (a fraction, e.g. 0.01) turns on the scene's
-    Target Error for the radiometers at that value. Raises RuntimeError with the add-on's message when the render
+    Target Error for the radiometers at that value, ``noise_threshold`` (a fraction) its Noise
+    Threshold for the pixels. Raises RuntimeError with the add-on's message when the render
     failed.
     """
     path, scene = open_blend(path)
@@ -77,6 +79,8 @@ def render_blend(path, frame: int | None = None, out_dir=None, samples: int | No
             setattr(p, name, int(value))
     if target_error is not None:
         p.use_target_error, p.target_error = True, 100.0 * float(target_error)
+    if noise_threshold is not None:
+        p.use_noise_threshold, p.noise_threshold = True, 100.0 * float(noise_threshold)
     if resolution_percentage is not None:
         scene.render.resolution_percentage = int(resolution_percentage)
     if frame is not None:

@@ -584,7 +584,10 @@ class _Exporter:
                           max_depth=int(p.max_depth), threads=int(p.threads),
                           forward_cone_deg=cone, beam_max_level=int(p.beam_max_level),
                           target_error=(blender_float(p.target_error) / 100.0
-                                        if p.use_target_error else None))
+                                        if p.use_target_error else None),
+                          noise_threshold=(blender_float(p.noise_threshold) / 100.0
+                                           if p.use_noise_threshold else None),
+                          adaptive_min_samples=int(p.adaptive_min_samples))
 
     # -- the walk ----------------------------------------------------------------------------
     def walk(self):

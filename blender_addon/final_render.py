@@ -216,8 +216,13 @@ class FinalRender:
         self.summary["stats"] = final.stats
         self._radiometers(photic, final, bscene)
         self.progress(1.0)
+        img = final.images.get(camera.name) if camera else None
+        adaptive = ""
+        if img is not None and img.noise_threshold is not None and img.pixel_samples is not None:
+            adaptive = (f" (noise threshold: mean {float(np.mean(img.pixel_samples)):.0f}, "
+                        f"{100 * float(np.mean(img.converged)):.0f} % of pixels reached it)")
         self.stats(f"{'cancelled, ' if final.cancelled else ''}{self.summary['samples']} "
-                   f"samples in {final.stats['time_s']:.1f} s, "
+                   f"samples{adaptive} in {final.stats['time_s']:.1f} s, "
                    f"{final.stats['segments_per_s'] / 1e6:.2f} M rays/s")
 
     def _run_distributed(self, photic, scene, bscene, address, bands, camera, t0) -> None:
@@ -228,6 +233,9 @@ class FinalRender:
         from photic.distributed.units import plan_round
 
         width, height = camera.resolution if camera else (1, 1)
+        if scene.settings.noise_threshold is not None:
+            self.engine.report({"WARNING"}, "Noise Threshold is not applied on a Dask scheduler: "
+                                            "every pixel takes all its samples")
         try:
             job = scene_job(scene, f"{bscene.name}_{bscene.frame_current:04d}")
         except photic.scene.SceneError as exc:

@@ -209,6 +209,10 @@ def import_scene(scene, bscene=None, collection=None) -> dict:
     props.use_target_error = st.target_error is not None
     if st.target_error is not None:
         props.target_error = 100.0 * st.target_error
+    props.use_noise_threshold = st.noise_threshold is not None
+    if st.noise_threshold is not None:
+        props.noise_threshold = 100.0 * st.noise_threshold
+    props.adaptive_min_samples = st.adaptive_min_samples
     if st.forward_cone_deg == "auto":
         props.forward_cone = "AUTO"
     else:

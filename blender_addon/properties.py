@@ -471,6 +471,19 @@ class PhoticSceneProperties(bpy.types.PropertyGroup):
                                 soft_min=0.1, soft_max=10.0, precision=2, subtype="PERCENTAGE",
                                 description="Relative standard error (1 sigma, percent of the "
                                             "value) at which a radiometer stops")
+    use_noise_threshold: BoolProperty(
+        name="Noise Threshold", default=False,
+        description="Adaptive sampling: stop each pixel when its relative standard error is at "
+                    "most the threshold in every band (after Min Samples); Samples is then the "
+                    "most a pixel takes")
+    noise_threshold: FloatProperty(name="Noise Threshold", default=2.0, min=0.01, max=50.0,
+                                   soft_min=0.5, soft_max=20.0, precision=2, subtype="PERCENTAGE",
+                                   description="Relative standard error (1 sigma, percent of the "
+                                               "pixel's value; dark pixels count as a twentieth "
+                                               "of the image's mean) at which a pixel stops")
+    adaptive_min_samples: IntProperty(name="Min Samples", default=16, min=1, max=1_000_000,
+                                      description="Samples per pixel before a pixel may stop at "
+                                                  "the noise threshold")
     seed: IntProperty(name="Seed", default=0, min=0, max=2**31 - 1,
                       description="Random seed: the same seed gives the same result bit for "
                                   "bit on any number of threads")

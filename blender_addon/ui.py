@@ -44,6 +44,14 @@ class PHOTIC_PT_render(PhoticPanel, bpy.types.Panel):
         col.prop(p, "samples")
         col.prop(p, "viewport_samples")
         col.prop(p, "viewport_scale")
+        row = layout.row(heading="Noise Threshold")
+        row.prop(p, "use_noise_threshold", text="")
+        sub = row.row()
+        sub.active = p.use_noise_threshold
+        sub.prop(p, "noise_threshold", text="")
+        sub = layout.row()
+        sub.active = p.use_noise_threshold
+        sub.prop(p, "adaptive_min_samples")
         layout.prop(p, "radiometer_samples")
         row = layout.row(heading="Target Error")
         row.prop(p, "use_target_error", text="")

@@ -175,6 +175,36 @@ def test_target_error_from_blender_is_the_engines(tmp_path):
     assert summary["stats"]["target_reached"] == direct.stats["target_reached"] > 0
 
 
+def test_noise_threshold_from_blender_is_the_engines(tmp_path):
+    """Noise Threshold and Min Samples in the Render panel: exported as settings.noise_threshold
+    and adaptive_min_samples, imported back, and a batch render with a threshold gives the
+    engine's adaptive image of the same scene (per-pixel samples in the EXR's summary)."""
+    ensure_registered()
+    bpy.ops.wm.open_mainfile(filepath=str(BLENDS / "stepped_pool.blend"))
+    p = bpy.context.scene.photic
+    assert not p.use_noise_threshold and export_current()[0].settings.noise_threshold is None
+    p.use_noise_threshold, p.noise_threshold, p.adaptive_min_samples = True, 4.0, 8
+    exported, _ = export_current()
+    assert exported.settings.noise_threshold == pytest.approx(0.04)
+    assert exported.settings.adaptive_min_samples == 8
+    path = tmp_path / "t.json"
+    photic.scene.save_scene(exported, path)
+    p.use_noise_threshold = False
+    assert bpy.ops.photic.import_scene(filepath=str(path)) == {"FINISHED"}
+    q = bpy.context.scene.photic
+    assert q.use_noise_threshold and q.noise_threshold == pytest.approx(4.0) and q.adaptive_min_samples == 8
+
+    bpy.ops.wm.open_mainfile(filepath=str(BLENDS / "stepped_pool.blend"))
+    bpy.context.scene.photic.adaptive_min_samples = 4
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "pool.blend"))
+    summary = render_blend(tmp_path / "pool.blend", out_dir=tmp_path, samples=32, radiometer_samples=1024,
+                           resolution_percentage=25, noise_threshold=0.2)
+    st = summary["stats"]
+    assert st["noise_threshold"] == 0.2 and st["adaptive_min_samples"] == 4
+    (cam, mean_spp), = st["pixel_samples_mean"].items()
+    assert 4 < mean_spp < 32 and 0 < st["pixels_converged"][cam] <= 1
+
+
 def test_canonical_blend_reproduces_problem_2(zscore):
     """The .blend's radiometer array against the published mean of the models (Mobley et al.
     1993), with the tolerance of `photic problems` and fewer samples."""

@@ -659,7 +659,7 @@ inline void accumulate(const Spectrum* comp, int nb, double* s, double* s2) {
 }  // namespace
 
 void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
-                          double* sum, double* sumsq, Counters* total) const {
+                          double* sum, double* sumsq, Counters* total, const uint8_t* active) const {
     const Camera& cam = cameras.at(ci);
     const int nb = nbands;
     const size_t stride = size_t(kNumComponents) * nb;
@@ -671,6 +671,7 @@ void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
         Counters& cnt = per_thread[tid];
         for (int px = 0; px < cam.width; ++px) {
             size_t pix = row * size_t(cam.width) + size_t(px);
+            if (active && !active[pix]) continue;
             double* s = sum + pix * stride;
             double* s2 = sumsq + pix * stride;
             for (uint64_t si = start; si < start + count; ++si) {

@@ -1,3 +1,4 @@
+#include <chrono>
 // Python bindings of the compiled core (photic._core). Heavy calls release the GIL.
 #include <cmath>
 #include <pybind11/numpy.h>
@@ -198,6 +199,17 @@ PYBIND11_MODULE(_core, m) {
                 phi.mutable_at(i) = P.phi.v[0];
             }
             return py::make_tuple(v, d, len, phi, hit);
+        })
+        .def("bench_beams_at", [](const Scene& s, DArray pts, int medium, int reps) {  // TEMP
+            auto P = pts.unchecked<2>();
+            BeamSample buf[64];
+            long total = 0;
+            auto t0 = std::chrono::steady_clock::now();
+            for (int r = 0; r < reps; ++r)
+                for (py::ssize_t i = 0; i < P.shape(0); ++i)
+                    total += s.beams_at(Vec3(P(i, 0), P(i, 1), P(i, 2)), medium, buf, 64);
+            double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            return py::make_tuple(dt / (double(reps) * P.shape(0)) * 1e9, total);
         })
         .def("prism_checks", [](const Scene& s) {
             // Per prism, which shadow rays its queries test: (N, 2) of (path, sun).
@@ -456,18 +468,28 @@ PYBIND11_MODULE(_core, m) {
         .def("cancel", [](Scene& s) { s.cancel_flag.store(true); })
         .def("reset_cancel", [](Scene& s) { s.cancel_flag.store(false); })
         .def_property_readonly("cancelled", [](const Scene& s) { return s.cancel_flag.load(); })
-        .def("render_camera", [](const Scene& s, int cam, uint64_t start, uint64_t count, int threads, py::object out) {
+        .def("render_camera", [](const Scene& s, int cam, uint64_t start, uint64_t count, int threads, py::object out,
+                                 py::object active) {
             const Camera& c = s.cameras.at(cam);
             auto [sum, sq] = pass_buffers(out, {c.height, c.width, kNumComponents, s.nbands});
+            py::array_t<uint8_t, py::array::c_style | py::array::forcecast> mask;
+            if (!active.is_none()) {
+                mask = active.cast<py::array_t<uint8_t, py::array::c_style | py::array::forcecast>>();
+                if (mask.ndim() != 2 || mask.shape(0) != c.height || mask.shape(1) != c.width)
+                    throw std::invalid_argument("active: expected a (height, width) mask of the camera's pixels");
+            }
             Counters cnt;
             {
                 py::gil_scoped_release nogil;
-                s.render_camera(cam, start, count, threads, sum.mutable_data(), sq.mutable_data(), &cnt);
+                s.render_camera(cam, start, count, threads, sum.mutable_data(), sq.mutable_data(), &cnt,
+                                active.is_none() ? nullptr : mask.data());
             }
             return py::make_tuple(sum, sq, counters_dict(cnt));
         }, py::arg("camera"), py::arg("start"), py::arg("count"), py::arg("threads") = 0, py::arg("out") = py::none(),
+           py::arg("active") = py::none(),
            "One pass of samples [start, start + count) per pixel: (sum, sum of squares, counters); "
-           "out = (sum, sum of squares) arrays to fill instead of new ones.")
+           "out = (sum, sum of squares) arrays to fill instead of new ones; active = a (height, "
+           "width) mask: pixels where it is 0 take no samples (their sums are 0).")
         .def("render_radiometer", [](const Scene& s, int rad, uint64_t start, uint64_t count, int threads, py::object out,
                                      py::object moments) {
             int nbins = s.radiometers.at(rad).bins();

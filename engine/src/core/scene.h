@@ -14,6 +14,7 @@
 #include "vec.h"
 #include "rough_interface.h"
 #include "voxel_grid.h"
+#include "huge_pages.h"
 
 namespace photic {
 
@@ -365,7 +366,7 @@ public:
     int beam_max_level = 5;           // adaptive subdivision levels of a surface triangle
     double beam_min_area_fraction = 1e-6;  // floor of a cross-section, times the source area
     // Beams of the current pass (rebuilt for every sun direction drawn in the disk).
-    std::vector<BeamPrism> prisms;
+    HugeVector<BeamPrism> prisms;
     bool flat_beam = false;           // analytic beam(s) below a flat ocean
     // Their refracted directions and irradiances normal to them just below the surface: one
     // beam for a smooth surface, kRoughFlatBeams facets (stratified) for a rough one.
@@ -452,8 +453,9 @@ public:
     // Sums over samples [start, start + count) of each pixel, per component and band:
     // sum[(pixel * kNumComponents + component) * nbands + band]; components are
     // total, beam_surface, beam_volume, path, beam_direct.
+    // active (optional, height x width): pixels where it is 0 are skipped (adaptive sampling).
     void render_camera(int cam, uint64_t start, uint64_t count, int threads,
-                       double* sum, double* sumsq, Counters* total) const;
+                       double* sum, double* sumsq, Counters* total, const uint8_t* active = nullptr) const;
     // Sums over samples [start, start + count) per bin, component and band (chunked, fixed order).
     // moments (optional): per bin and band, the total's central sums of powers 2, 3 and 4 about
     // the pass's own mean, moments[(bin * 3 + (power - 2)) * nbands + band]: the tails of the
@@ -482,7 +484,7 @@ private:
         double sx = 0.0, sy = 0.0;  // cell (i, j, k) holds u = x + sx z, v = y + sy z, z
         Vec3 lo, cell;
         int nx = 0, ny = 0, nz = 0;
-        std::vector<uint32_t> start, items;
+        HugeVector<uint32_t> start, items;
     } grid_;
     // Per prism, what a query reads first (beside it in memory, not in the large BeamPrism):
     // its water body and, for prisms sliced horizontally, the corners of the slice at height
@@ -493,7 +495,7 @@ private:
         int water;
         bool horizontal;
     };
-    std::vector<PrismKey> prism_keys_;
+    HugeVector<PrismKey> prism_keys_;
     void build_grid();
     // Whether an opaque triangle may lie in the union of boxes [lo_i, hi_i] (grown by tol),
     // other than those entirely on or behind the plane through plane_p with normal plane_n

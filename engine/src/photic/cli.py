@@ -80,6 +80,20 @@ def relative_error_arg(text: str) -> float:
     return v
 
 
+def noise_summary(result) -> list[str]:
+    """A line per camera of an adaptive render (settings.noise_threshold): how many pixels
+    reached the threshold, and their samples."""
+    lines = []
+    for name, img in result.images.items():
+        if img.noise_threshold is None or img.pixel_samples is None:
+            continue
+        ps = img.pixel_samples
+        lines.append(f"camera {name}: noise threshold {100 * img.noise_threshold:.3g} % reached by "
+                     f"{100 * float(np.mean(img.converged)):.1f} % of pixels; samples per pixel "
+                     f"{int(ps.min())}-{int(ps.max())}, mean {float(ps.mean()):.1f} (at most {img.samples})")
+    return lines
+
+
 def target_summary(result) -> str | None:
     """One line on the target error of an adaptive render (None without one)."""
     st = result.stats
@@ -106,6 +120,8 @@ def cmd_render(args) -> int:
             scene.settings.forward_cone_deg = args.forward_cone if args.forward_cone == "auto" else float(args.forward_cone)
         if args.target_error is not None:
             scene.settings.target_error = args.target_error
+        if args.noise_threshold is not None:
+            scene.settings.noise_threshold = args.noise_threshold
         renderer = Renderer(scene, samples=args.samples, radiometer_samples=args.radiometer_samples,
                             seed=args.seed, threads=args.threads)
     except SceneError as e:
@@ -148,6 +164,8 @@ def cmd_render(args) -> int:
         line = target_summary(result)
         if line:
             print(line)
+    for line in noise_summary(result):
+        print(line)
     for p in written["images"]:
         print(f"image: {p}")
     for p in written["tables"]:
@@ -291,7 +309,8 @@ def cmd_blend(args) -> int:
                                          samples=args.samples,
                                          radiometer_samples=args.radiometer_samples,
                                          seed=args.seed, threads=args.threads, progress=progress,
-                                         target_error=args.target_error)
+                                         target_error=args.target_error,
+                                         noise_threshold=args.noise_threshold)
         finally:
             if bar is not None:
                 bar.close()
@@ -382,6 +401,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="stop each radiometer when its relative standard error (the worst of its "
                         "bins and bands) is at most REL, e.g. 1%% or 0.01, and its error can be "
                         "trusted (default: the scene's settings.target_error)")
+    r.add_argument("--noise-threshold", type=relative_error_arg, default=None, metavar="REL",
+                   help="adaptive sampling: stop each pixel when its relative standard error is at "
+                        "most REL in every band (e.g. 2%% or 0.02; after settings."
+                        "adaptive_min_samples), --samples then being the most a pixel takes "
+                        "(default: the scene's settings.noise_threshold)")
     r.add_argument("--seed", type=int, default=None, help="random seed (default: the scene's)")
     r.add_argument("--integrator", choices=["auto", "hybrid", "path"], default=None,
                    help="hybrid (the refracted sun as beams), path (pure path tracing) or auto "
@@ -459,6 +483,8 @@ def build_parser() -> argparse.ArgumentParser:
     bl.add_argument("--target-error", type=relative_error_arg, default=None, metavar="REL",
                     help="stop each radiometer at this relative standard error, e.g. 1%% "
                          "(default: the file's Target Error)")
+    bl.add_argument("--noise-threshold", type=relative_error_arg, default=None, metavar="REL",
+                    help="turn on the file's Noise Threshold (adaptive sampling) at REL, e.g. 2%%")
     bl.add_argument("--seed", type=int, default=None, help="random seed (default: the file's)")
     bl.add_argument("--threads", type=int, default=None, help="threads, 0 = all cores (default: the file's)")
     bl.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -230,47 +230,78 @@ def combine_round_sums(rounds: list[RadiometerSums]) -> dict:
 
 class CameraSums:
     """Per-pixel sums of one camera: (H, W, components + 1, bands) s and s2, and for the
-    between-pass analysis b = sum over passes of (pass sum of the total)^2 / pass size."""
+    between-pass analysis b = sum over passes of (pass sum of the total)^2 / pass size.
+
+    With adaptive sampling (``add_pass`` given an active mask) pixels take different passes:
+    ``n`` (samples), ``passes`` and ``sum_n2`` (sum of squared pass sizes) per pixel."""
 
     def __init__(self, shape: tuple, between: bool):
         self.s, self.s2 = np.zeros(shape), np.zeros(shape)
         self.b = np.zeros(shape[:2] + shape[3:]) if between else None
         self.sizes: list[int] = []     # pass sizes (band group 0)
+        self.n = np.zeros(shape[:2], np.int64)
+        self.passes = np.zeros(shape[:2], np.int64)
+        self.sum_n2 = np.zeros(shape[:2])
+        self.adaptive = False          # whether some pass skipped some pixels
 
     def copy(self) -> "CameraSums":
         c = CameraSums(self.s.shape, self.b is not None)
         c.s, c.s2 = self.s.copy(), self.s2.copy()
         c.b = None if self.b is None else self.b.copy()
         c.sizes = list(self.sizes)
+        c.n, c.passes, c.sum_n2 = self.n.copy(), self.passes.copy(), self.sum_n2.copy()
+        c.adaptive = self.adaptive
         return c
 
-    def add_pass(self, g: slice, s: np.ndarray, s2: np.ndarray, n: int, first_group: bool) -> None:
+    def add_pass(self, g: slice, s: np.ndarray, s2: np.ndarray, n: int, first_group: bool,
+                 active: np.ndarray | None = None) -> None:
+        """A pass of ``n`` samples per pixel over band group ``g``; ``active`` (H, W): the
+        pixels that took it (None: all)."""
         self.s[..., g] += s
         self.s2[..., g] += s2
         if self.b is not None:
             self.b[..., g] += s[:, :, 0, :] ** 2 / n
         if first_group:
             self.sizes.append(int(n))
+            took = 1 if active is None else (np.asarray(active) != 0)
+            self.n += n * took
+            self.passes += took
+            self.sum_n2 += float(n) * n * took
+            self.adaptive = self.adaptive or (active is not None and not np.all(took))
 
 
-def image_variance(s: np.ndarray, s2: np.ndarray, n: int, b: np.ndarray | None = None,
-                   sizes: list[int] | None = None) -> np.ndarray:
+def image_variance(s: np.ndarray, s2: np.ndarray, n, b: np.ndarray | None = None,
+                   sizes: list[int] | None = None, passes=None, sum_n2=None) -> np.ndarray:
     """Variance of each pixel's mean of its total (H, W, bands); inf where it cannot be
     estimated (fewer than 2 samples).
 
     s, s2: the total's sums (H, W, bands); with b and the pass sizes (passes of independent
-    beams), the random-effects estimate of within- and between-pass variance."""
-    if n < 2:
-        return np.full(s.shape, np.inf)
-    mean, err = mean_stderr(s, s2, n)
+    beams), the random-effects estimate of within- and between-pass variance. ``n`` may be a
+    number or an (H, W) array of samples per pixel; with per-pixel ``passes`` and ``sum_n2``
+    (adaptive sampling) each pixel's own passes count."""
+    N = np.asarray(n, dtype=np.float64)
+    if passes is None:
+        if N.ndim == 0 and N < 2:
+            return np.full(s.shape, np.inf)
+        if b is None or sizes is None or len(sizes) < 2 or sum(sizes) != int(N.max()):
+            mean, err = mean_stderr(s, s2, N[..., None] if N.ndim else N)
+            out = err * err
+            return np.where((N[..., None] if N.ndim else N) < 2, np.inf, out)
+        P = np.full(N.shape, float(len(sizes)))
+        SN2 = np.full(N.shape, float(sum(x * x for x in sizes)))
+    else:
+        P, SN2 = np.asarray(passes, np.float64), np.asarray(sum_n2, np.float64)
+    N3, P3, SN23 = N[..., None], P[..., None], SN2[..., None]
+    mean, err = mean_stderr(s, s2, N3)
     plain = err * err
-    if b is None or sizes is None or len(sizes) < 2 or sum(sizes) != n:
-        return plain
-    N, P = float(n), len(sizes)
-    sum_n2 = float(sum(x * x for x in sizes))
-    if N <= P:  # every pass one sample: they are independent, the plain estimate holds
-        return plain
-    within = np.maximum(s2 - b, 0.0) / (N - P)
-    between_ss = np.maximum(b - s * s / N, 0.0)
-    sb2 = (between_ss - (P - 1) * within) / (N - sum_n2 / N)
-    return within / N + np.maximum(sb2, 0.0) * sum_n2 / (N * N)
+    if b is None:
+        return np.where(N3 < 2, np.inf, plain)
+    # Random effects (where a pixel has 2+ passes and more samples than passes).
+    with np.errstate(divide="ignore", invalid="ignore"):
+        within = np.maximum(s2 - b, 0.0) / np.maximum(N3 - P3, 1.0)
+        between_ss = np.maximum(b - s * s / np.maximum(N3, 1.0), 0.0)
+        sb2 = (between_ss - (P3 - 1) * within) / np.maximum(N3 - SN23 / np.maximum(N3, 1.0), 1e-300)
+        anova = within / np.maximum(N3, 1.0) + np.maximum(sb2, 0.0) * SN23 / np.maximum(N3 * N3, 1.0)
+    use = (P3 >= 2) & (N3 > P3)
+    out = np.where(use, anova, plain)
+    return np.where(N3 < 2, np.inf, out)

@@ -40,7 +40,8 @@ def write_exr(path, result: RenderResult, camera: str) -> Path:
     for c in comps:
         for k, band in enumerate(result.bands):
             channels[f"{c}.{band.name}"] = np.ascontiguousarray(img.components[c][..., k], dtype=np.float32)
-    channels["samples"] = np.full(img.mean.shape[:2], float(img.samples), dtype=np.float32)
+    channels["samples"] = (np.full(img.mean.shape[:2], float(img.samples), dtype=np.float32)
+                           if img.pixel_samples is None else np.asarray(img.pixel_samples, dtype=np.float32))
     header = {
         "compression": OpenEXR.ZIP_COMPRESSION,
         "type": OpenEXR.scanlineimage,
@@ -53,6 +54,9 @@ def write_exr(path, result: RenderResult, camera: str) -> Path:
                                     for b in result.bands]),
         "photic:seed": str(result.stats.get("seed", "")),
     }
+    if img.noise_threshold is not None:  # adaptive sampling: samples per pixel vary
+        header["photic:noise_threshold"] = float(img.noise_threshold)
+        header["photic:pixels_converged"] = float(np.mean(img.converged)) if img.converged is not None else 0.0
     if "integrator" in result.stats:
         header["photic:integrator"] = str(result.stats["integrator"])
     if "forward_cone_deg" in result.stats:

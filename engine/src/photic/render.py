@@ -40,8 +40,13 @@ class ImageResult:
     name: str
     mean: np.ndarray          # (H, W, nbands) radiance
     variance: np.ndarray      # (H, W, nbands) variance of the per-pixel mean (standard error^2)
-    samples: int              # samples per pixel
+    samples: int              # samples per pixel (with adaptive sampling: the most any pixel took)
     components: dict = field(default_factory=dict)  # name -> (H, W, nbands) mean
+    # Adaptive sampling (settings.noise_threshold): samples each pixel took (H, W), and whether
+    # it stopped at the threshold; None otherwise.
+    pixel_samples: np.ndarray | None = None
+    converged: np.ndarray | None = None
+    noise_threshold: float | None = None
 
     @property
     def units(self) -> str:
@@ -281,11 +286,35 @@ def build_pass_beams(core, scene: Scene, seed: int, key: tuple, i: int, n: int, 
 
 
 def image_result(name: str, sums: CameraSums, n: int) -> ImageResult:
-    """A camera's result from its sums over ``n`` samples per pixel."""
-    mean, _ = mean_stderr(sums.s, sums.s2, n)
-    var = image_variance(sums.s[:, :, 0, :], sums.s2[:, :, 0, :], n, sums.b, sums.sizes)
+    """A camera's result from its sums over ``n`` samples per pixel (adaptive sampling: each
+    pixel's own, from the sums)."""
+    if not sums.adaptive:
+        mean, _ = mean_stderr(sums.s, sums.s2, n)
+        var = image_variance(sums.s[:, :, 0, :], sums.s2[:, :, 0, :], n, sums.b, sums.sizes)
+        comps = {c: mean[:, :, i + 1, :] for i, c in enumerate(COMPONENTS[:3])}
+        return ImageResult(name, mean[:, :, 0, :], var, n, comps)
+    mean, _ = mean_stderr(sums.s, sums.s2, sums.n[:, :, None, None])
+    var = image_variance(sums.s[:, :, 0, :], sums.s2[:, :, 0, :], sums.n, sums.b,
+                         passes=sums.passes, sum_n2=sums.sum_n2)
     comps = {c: mean[:, :, i + 1, :] for i, c in enumerate(COMPONENTS[:3])}
-    return ImageResult(name, mean[:, :, 0, :], var, n, comps)
+    return ImageResult(name, mean[:, :, 0, :], var, int(sums.n.max()), comps,
+                       pixel_samples=sums.n.copy())
+
+
+ADAPTIVE_FLOOR = 0.05  # pixel values below this fraction of the image's mean count as that
+
+
+def pixels_converged(img: ImageResult, threshold: float) -> np.ndarray:
+    """(H, W) bool: pixels whose standard error is at most ``threshold`` times their value in
+    every band, values below ADAPTIVE_FLOOR times the band's image mean counting as that (so
+    black and nearly black pixels stop on an absolute error, not on a relative one that would
+    never be reached); pixels without an error estimate (fewer than 2 samples) are not."""
+    mean = np.maximum(img.mean, 0.0)
+    floor = ADAPTIVE_FLOOR * np.mean(mean, axis=(0, 1))
+    scale = np.maximum(mean, floor[None, None, :])
+    se = np.sqrt(img.variance)
+    ok = np.isfinite(se) & (se <= threshold * scale)
+    return np.all(ok, axis=-1)
 
 
 EXACT_BELOW_WAVES = "exact mode below waves: rare paths may be missing (set a forward cone)"
@@ -379,15 +408,18 @@ class Renderer:
     Parameters override the scene's settings: ``samples`` per pixel, ``radiometer_samples`` per
     radiometer, ``seed``, ``threads`` (0 = all cores), ``target_error`` (a relative standard
     error at which each radiometer stops, ``radiometer_samples`` then being the most it may
-    take; None: every radiometer takes all its samples) and ``radiometer_targets`` (radiometer
-    name -> its own target error, over ``target_error``).
+    take; None: every radiometer takes all its samples), ``radiometer_targets`` (radiometer
+    name -> its own target error, over ``target_error``) and ``noise_threshold`` (a relative
+    standard error at which each pixel stops after ``adaptive_min_samples``, ``samples`` then
+    being the most it may take; None: every pixel takes all its samples).
     """
 
     _UNSET = object()
 
     def __init__(self, scene: Scene, samples: int | None = None, radiometer_samples: int | None = None,
                  seed: int | None = None, threads: int | None = None, target_error=_UNSET,
-                 radiometer_targets: dict | None = None):
+                 radiometer_targets: dict | None = None, noise_threshold=_UNSET,
+                 adaptive_min_samples: int | None = None):
         scene.validate()
         st = scene.settings
         self.integrator = resolve_integrator(scene)
@@ -405,6 +437,14 @@ class Renderer:
             raise SceneError("settings", "threads", f"must be in 0..1024, got {self.threads}")
         self.target_error = _check_target(
             "settings", "target_error", st.target_error if target_error is Renderer._UNSET else target_error)
+        self.noise_threshold = _check_target(
+            "settings", "noise_threshold",
+            st.noise_threshold if noise_threshold is Renderer._UNSET else noise_threshold)
+        self.adaptive_min_samples = int(st.adaptive_min_samples if adaptive_min_samples is None
+                                        else adaptive_min_samples)
+        if not 1 <= self.adaptive_min_samples <= 10**6:
+            raise SceneError("settings", "adaptive_min_samples",
+                             f"must be in 1..1000000, got {self.adaptive_min_samples}")
         names = {r.name for r in scene.all_radiometers()}
         self.radiometer_targets = {}
         for name, value in (radiometer_targets or {}).items():
@@ -459,6 +499,7 @@ class Renderer:
                                      for c in scene.cameras}
         cam_done = self._cam_done = {c.name: 0 for c in scene.cameras}
         cam_passes = self._camera_passes()
+        active_masks: dict = {}  # camera -> the active-pixel mask of each pass (adaptive sampling)
         # per radiometer, its sums per (band group, round); without a target error one round
         # whose sums all band groups fill, keyed (0, 0)
         rad_rounds: list[dict] = [{} for _ in radiometers]
@@ -513,22 +554,46 @@ class Renderer:
                 media_index[ri] = m
                 if gi == 0:
                     nbins_of[ri] = core.radiometer_bins(ri)
-            # Cameras: every pass with beams of its own (an independent draw).
+            # Cameras: every pass with beams of its own (an independent draw). With a noise
+            # threshold, the pixels that reached it take no further passes: decided on the
+            # first band group, and the same pixels skip the same passes in the others.
             for ci, cam in enumerate(scene.cameras):
                 shape = (cam.resolution[1], cam.resolution[0], nc, g.stop - g.start)
+                npix = cam.resolution[0] * cam.resolution[1]
+                masks = active_masks.setdefault(cam.name, [])
                 for pi, (start, n) in enumerate(cam_passes):
+                    active = None
+                    if gi > 0:
+                        if pi >= len(masks):  # every pixel stopped here in the first group
+                            done_work += npix * (self.samples - start)
+                            break
+                        active = masks[pi]
+                    elif self.noise_threshold is not None and start >= self.adaptive_min_samples:
+                        with self._lock:
+                            img = image_result(cam.name, cam_sums[cam.name], cam_done[cam.name])
+                        done_px = pixels_converged(img, self.noise_threshold)
+                        if masks and masks[-1] is not None:
+                            done_px |= masks[-1] == 0  # a pixel that stopped stays stopped
+                        if np.all(done_px):
+                            done_work += npix * (self.samples - start)
+                            break
+                        active = np.ascontiguousarray(~done_px, dtype=np.uint8)
+                    if gi == 0:
+                        masks.append(active)
                     new_pass(core, self.seed, (0, ci), pi, len(cam_passes), False)
-                    s, s2, c = core.render_camera(ci, start, n, self.threads, out(shape))
+                    s, s2, c = core.render_camera(ci, start, n, self.threads, out(shape), active)
                     if core.cancelled:
                         cancelled = True
                         break
+                    taking = npix if active is None else int(np.count_nonzero(active))
                     with self._lock:
-                        cam_sums[cam.name].add_pass(g, s, s2, n, gi == 0)
+                        cam_sums[cam.name].add_pass(g, s, s2, n, gi == 0, active)
                         if gi == 0:
                             cam_done[cam.name] = start + n
                         add_counts(c)
-                        done_work += cam.resolution[0] * cam.resolution[1] * n
-                    report(f"camera {cam.name}: {start + n}/{self.samples} samples")
+                        done_work += npix * n  # (a stopped pixel's share is done too)
+                    report(f"camera {cam.name}: {start + n}/{self.samples} samples"
+                           + (f" ({taking / npix:.0%} of pixels)" if active is not None else ""))
                 if cancelled:
                     break
             # Radiometers: in rounds (one without a target error), each pass after pass for
@@ -593,7 +658,14 @@ class Renderer:
         elapsed = time.perf_counter() - t0
 
         for cam in scene.cameras:
-            result.images[cam.name] = image_result(cam.name, cam_sums[cam.name], cam_done[cam.name])
+            img = result.images[cam.name] = image_result(cam.name, cam_sums[cam.name], cam_done[cam.name])
+            if self.noise_threshold is not None and cam_done[cam.name]:
+                img.noise_threshold = self.noise_threshold
+                if img.pixel_samples is None:
+                    img.pixel_samples = np.full(img.mean.shape[:2], img.samples, np.int64)
+                masks = [m for m in active_masks.get(cam.name, []) if m is not None]
+                stopped = (masks[-1] == 0) if masks else np.zeros(img.mean.shape[:2], bool)
+                img.converged = stopped | pixels_converged(img, self.noise_threshold)
         reached = 0
         for ri, r in enumerate(radiometers):
             if not rad_rounds[ri]:
@@ -618,6 +690,15 @@ class Renderer:
         if adaptive:
             result.stats.update(target_error=self.target_error, rounds=rounds_run,
                                 target_reached=reached)
+        if self.noise_threshold is not None:
+            result.stats.update(noise_threshold=self.noise_threshold,
+                                adaptive_min_samples=self.adaptive_min_samples,
+                                pixel_samples_mean={k: float(np.mean(v.pixel_samples))
+                                                    for k, v in result.images.items()
+                                                    if v.pixel_samples is not None},
+                                pixels_converged={k: float(np.mean(v.converged))
+                                                  for k, v in result.images.items()
+                                                  if v.converged is not None})
         return result
 
 

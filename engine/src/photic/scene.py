@@ -703,6 +703,8 @@ class Settings(_ArrayEq):
     forward_cone_deg: float | str = "auto"  # half-angle kept in the beams, or "auto"
     beam_max_level: int = 5    # adaptive subdivision levels of a water-surface triangle
     target_error: float | None = None  # relative standard error at which radiometers stop
+    noise_threshold: float | None = None  # relative standard error at which pixels stop
+    adaptive_min_samples: int = 16     # samples per pixel before a pixel may stop
 
 
 def _default_bands() -> list[Band]:
@@ -1338,6 +1340,9 @@ def _validate_settings(s: Settings) -> None:
         _check_real("settings", "forward_cone_deg", s.forward_cone_deg, 0.0, 30.0)
     if s.target_error is not None:
         _check_real("settings", "target_error", s.target_error, 0.0, 1.0, lo_open=True, hi_open=True)
+    if s.noise_threshold is not None:
+        _check_real("settings", "noise_threshold", s.noise_threshold, 0.0, 1.0, lo_open=True, hi_open=True)
+    _check_int("settings", "adaptive_min_samples", s.adaptive_min_samples, 1, 1_000_000)
 
 
 # ----------------------------------------------------------------------------------------
@@ -1882,8 +1887,8 @@ def _build_scene(d: dict, base_dir: Path) -> Scene:
                   _per_band("sun", "irradiance", s["irradiance"], nb),
                   float(s.get("angular_diameter_deg", 0.53)))
     settings = Settings(**{k: (v if k in ("integrator", "forward_cone_deg") else
-                               None if (k == "target_error" and v is None) else
-                               float(v) if k == "target_error" else int(v))
+                               None if (k in ("target_error", "noise_threshold") and v is None) else
+                               float(v) if k in ("target_error", "noise_threshold") else int(v))
                            for k, v in d.get("settings", {}).items()})
     return Scene(
         name=d.get("name", "scene"), bands=bands, materials=materials, meshes=meshes,
@@ -2021,7 +2026,10 @@ def _scene_to_dict(s: Scene) -> dict:
                      "forward_cone_deg": s.settings.forward_cone_deg,
                      "beam_max_level": int(s.settings.beam_max_level),
                      **({} if s.settings.target_error is None else
-                        {"target_error": float(s.settings.target_error)})},
+                        {"target_error": float(s.settings.target_error)}),
+                     **({} if s.settings.noise_threshold is None else
+                        {"noise_threshold": float(s.settings.noise_threshold),
+                         "adaptive_min_samples": int(s.settings.adaptive_min_samples)})},
     }
 
 
