@@ -1,4 +1,3 @@
-#include <chrono>
 // Python bindings of the compiled core (photic._core). Heavy calls release the GIL.
 #include <cmath>
 #include <pybind11/numpy.h>
@@ -199,17 +198,6 @@ PYBIND11_MODULE(_core, m) {
                 phi.mutable_at(i) = P.phi.v[0];
             }
             return py::make_tuple(v, d, len, phi, hit);
-        })
-        .def("bench_beams_at", [](const Scene& s, DArray pts, int medium, int reps) {  // TEMP
-            auto P = pts.unchecked<2>();
-            BeamSample buf[64];
-            long total = 0;
-            auto t0 = std::chrono::steady_clock::now();
-            for (int r = 0; r < reps; ++r)
-                for (py::ssize_t i = 0; i < P.shape(0); ++i)
-                    total += s.beams_at(Vec3(P(i, 0), P(i, 1), P(i, 2)), medium, buf, 64);
-            double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-            return py::make_tuple(dt / (double(reps) * P.shape(0)) * 1e9, total);
         })
         .def("prism_checks", [](const Scene& s) {
             // Per prism, which shadow rays its queries test: (N, 2) of (path, sun).
