@@ -181,13 +181,19 @@ def cmd_bench(args) -> int:
         from .bench_large import run_large_cli
         return run_large_cli(args)
     if args.error:
-        from .bench import DEFAULT_ERROR_PLOT, run_error_bench
+        from .bench import DEFAULT_ERROR_PLOT, SPEED_CASES, run_speed_bench
         say = None if args.json else (lambda msg: print(msg, file=sys.stderr, flush=True))
         plot = str(DEFAULT_ERROR_PLOT) if args.plot is None else args.plot
-        records = run_error_bench(quick=args.quick, threads=max(args.threads),
-                                  plot=plot or None, print_table=not args.json, progress=say)
+        cases = args.cases.split(",") if args.cases else list(SPEED_CASES)
+        unknown = set(cases) - set(SPEED_CASES)
+        if unknown:
+            print(f"photic bench: unknown --cases {sorted(unknown)} (known: {','.join(SPEED_CASES)})",
+                  file=sys.stderr)
+            return 2
+        out = run_speed_bench(cases, quick=args.quick, threads=max(args.threads), plot=plot or None,
+                              print_table=not args.json, progress=say)
         if args.json:
-            print(json.dumps(records, indent=1))
+            print(json.dumps(out, indent=1, default=float))
         return 0
     from .bench import run_bench
     records = run_bench(quick=args.quick, threads=args.threads, seconds=args.seconds, print_table=not args.json)
@@ -531,6 +537,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "the stepped pool's underwater camera, relative error against a reference "
                         "rendered with hybrid cone 0 at a large budget; prints a table and the time to "
                         "5%% error, writes a log-log plot (threads: the largest of --threads)")
+    b.add_argument("--cases", default=None,
+                   help="with --error: comma-separated cases among problem2, pool (32x24), pool256 "
+                        "(the 256x256 pool view: time to 5 %% and CPU-s per sample), waves (256 Ed "
+                        "radiometers under a wave patch against a flat sea), cycles (Cycles' CPU-s "
+                        "per sample on the pool view, when bpy is present); default: all")
     b.add_argument("--plot", default=None,
                    help="with --error: PNG plot of error against time (default: docs/images/bench_error.png); "
                         "with --large: time and memory against triangles (default: "
