@@ -172,12 +172,21 @@ double Scene::beam_total_flux() const {
     return s;
 }
 
+double Scene::air_beam_total_flux() const {
+    double s = 0.0;
+    for (const auto& p : air_prisms) s += p.phi.v[0];
+    return s;
+}
+
 void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2) {
     prisms.clear();
+    air_prisms.clear();
     flat_beam = false;
+    flat_air_beam = false;
     flat_d.clear();
     flat_e0.clear();
     grid_ = BeamGrid();
+    air_grid_ = BeamGrid();
     if (!has_sun) return;
     const Vec3 s = normalize(sun_direction);
     beam_sun_dir = s;
@@ -252,6 +261,19 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         }
     }
 
+    // The sun reflected into the air by smooth water surfaces lights what stands in the air:
+    // built only where opaque objects or radiometers are there to be lit.
+    bool need_air = false;
+    for (const auto& m : meshes) need_air = need_air || m.kind == SurfaceKind::kOpaque;
+    for (const auto& r : radiometers) need_air = need_air || r.medium < 0;
+    if (need_air && ocean_water >= 0 && ocean_flat && !ocean_rough && s.z > 0.0) {
+        // A smooth flat sea: the mirror image of the sun, its irradiance normal to itself F E.
+        const double F = fresnel_unpolarized(s.z, 1.0, waters[ocean_water].ior);
+        flat_air_d = Vec3(-s.x, -s.y, s.z);
+        for (int k = 0; k < nbands; ++k) flat_air_e.v[k] = e_sun.v[k] * F;
+        flat_air_beam = F > 0.0;
+    }
+
     // Source triangles: the ocean patch (with its vertex normals) and the sun-facing faces of
     // closed water meshes (face normals).
     std::vector<SourceTri> src;
@@ -275,37 +297,18 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
     }
     for (const auto& m : meshes) {
         if (m.kind != SurfaceKind::kWaterBoundary) continue;
-        size_t nt = m.triangles.size() / 3, nv = m.vertices.size() / 3;
+        const size_t nt = m.triangles.size() / 3;
         auto V = [&](uint32_t i) { return Vec3(m.vertices[3 * i], m.vertices[3 * i + 1], m.vertices[3 * i + 2]); };
-        // Smooth shading normals at the corners: the area-weighted normals of the faces around
-        // the vertex that turn by less than 30 deg from this face, so that a wave surface
-        // refracts continuously (adjacent prisms share their rays and focus) while the sharp
-        // edges of a box stay sharp.
-        std::vector<Vec3> fn(nt);
-        std::vector<uint32_t> start(nv + 1, 0), faces;
-        for (size_t t = 0; t < nt; ++t) {
-            const uint32_t* tri = &m.triangles[3 * t];
-            fn[t] = cross(V(tri[1]) - V(tri[0]), V(tri[2]) - V(tri[0]));  // length: twice the area
-            for (int j = 0; j < 3; ++j) start[tri[j] + 1]++;
-        }
-        for (size_t i = 0; i < nv; ++i) start[i + 1] += start[i];
-        faces.resize(start[nv]);
-        std::vector<uint32_t> fill(start.begin(), start.end() - 1);
-        for (size_t t = 0; t < nt; ++t)
-            for (int j = 0; j < 3; ++j) faces[fill[m.triangles[3 * t + j]]++] = uint32_t(t);
-        const double cos_limit = std::cos(30.0 * kPi / 180.0);
+        // The smooth shading normals at the corners (smooth_corner_normals, made at commit),
+        // which the paths meet too.
         for (size_t t = 0; t < nt; ++t) {
             const uint32_t* tri = &m.triangles[3 * t];
             SourceTri st;
             for (int j = 0; j < 3; ++j) st.p[j] = V(tri[j]);
-            st.nf = normalize(fn[t]);
+            st.nf = normalize(cross(st.p[1] - st.p[0], st.p[2] - st.p[0]));
             if (dot(st.nf, s) <= 0.0) continue;
-            for (int j = 0; j < 3; ++j) {
-                Vec3 sum;
-                for (uint32_t k = start[tri[j]]; k < start[tri[j] + 1]; ++k)
-                    if (dot(normalize(fn[faces[k]]), st.nf) > cos_limit) sum += fn[faces[k]];
-                st.n[j] = normalize(sum);
-            }
+            const float* c = &m.corner_normals[9 * t];
+            for (int j = 0; j < 3; ++j) st.n[j] = normalize(Vec3(c[3 * j], c[3 * j + 1], c[3 * j + 2]));
             st.water = m.index;
             st.periodic = false;
             if (dot(st.nf, s) > 0.0) src.push_back(st);
@@ -329,6 +332,38 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
     // bottom): its prism serves every period, and the meshes (which stand in one period only)
     // are met by each query's shadow rays in the period it asks about. A vertex ray of a water
     // mesh meets everything.
+    // Reflected rays end where they leave the scene's bounds (nothing beyond to light).
+    auto air_cap = [&](const Vec3& o, const Vec3& d) {
+        double t1 = 100.0 * extent_;
+        for (int a = 0; a < 3; ++a) {
+            const double lo = bounds_lo_[a] - 1e-3 * extent_, hi = bounds_hi_[a] + 1e-3 * extent_;
+            if (d[a] > 0.0) t1 = std::min(t1, (hi - o[a]) / d[a]);
+            else if (d[a] < 0.0) t1 = std::min(t1, (lo - o[a]) / d[a]);
+        }
+        return std::max(t1, 0.0);
+    };
+    // A vertex ray of the sun reflected into the air about the vertex's normal (lit if that
+    // normal faces the sun and the reflection leaves on the air side of the face; else it
+    // follows the face's own reflection, as a placeholder that the shadow rays sort out).
+    auto trace_vertex_air = [&](const Vec3& p, const Vec3& n, const Vec3& nf, bool periodic) {
+        VertexRay r;
+        r.p = p;
+        r.n = n;
+        const double off = offset_for(p);
+        r.d = reflect(-s, n);
+        if (dot(n, s) > 0.0 && dot(r.d, nf) > 0.0) {
+            r.lit = periodic ? !occluded_ocean(p + n * off, s) : !occluded(p + n * off, s);
+        } else {
+            r.d = reflect(-s, nf);
+        }
+        const Vec3 o = p + nf * off;
+        const double cap = air_cap(o, r.d);
+        Hit h = periodic ? intersect_ocean(o, r.d, cap) : intersect(o, r.d, cap);
+        r.len = h.valid ? h.t + off : cap;
+        r.id = h.valid ? h.id : -1;
+        r.hn = h.valid ? h.n : Vec3();
+        return r;
+    };
     auto trace_vertex = [&](const Vec3& p, const Vec3& n, const Vec3& nf, int wi, bool rough, bool periodic) {
         VertexRay r;
         r.p = p;
@@ -358,19 +393,25 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         return r;
     };
 
-    // Per source triangle, adaptive subdivision into prisms (in parallel, merged in order).
+    // Per source triangle, adaptive subdivision into prisms (in parallel, merged in order):
+    // the refracted sun's in the water, then (air) the reflected sun's in the air, from the
+    // smooth surfaces (a rough sea's reflection is sampled by its BSDF instead).
+    auto make_prisms = [&](bool air, HugeVector<BeamPrism>* dest) {
     std::vector<std::vector<BeamPrism>> out(src.size());
     parallel_for(src.size(), threads, [&](size_t ti, int) {
         const SourceTri& st = src[ti];
         const Water& w = waters[st.water];
+        const bool rough = st.periodic && ocean_rough;  // the ocean patch's facets
+        if (air && rough) return;
         struct Item { Vec3 p[3], n[3]; int level; };
         std::vector<Item> stack{{{st.p[0], st.p[1], st.p[2]}, {st.n[0], st.n[1], st.n[2]}, 0}};
         while (!stack.empty()) {
             Item it = stack.back();
             stack.pop_back();
             VertexRay r[3];
-            const bool rough = st.periodic && ocean_rough;  // the ocean patch's facets
-            for (int j = 0; j < 3; ++j) r[j] = trace_vertex(it.p[j], it.n[j], st.nf, st.water, rough, st.periodic);
+            for (int j = 0; j < 3; ++j)
+                r[j] = air ? trace_vertex_air(it.p[j], it.n[j], st.nf, st.periodic)
+                           : trace_vertex(it.p[j], it.n[j], st.nf, st.water, rough, st.periodic);
             int lit = int(r[0].lit) + int(r[1].lit) + int(r[2].lit);
             if (lit == 0) continue;
             // One prism is right only if its three rays end on one plane of one object; else
@@ -395,11 +436,12 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             BeamPrism P;
             double cs = dot(st.nf, s);
             double area = 0.5 * length(cross(it.p[1] - it.p[0], it.p[2] - it.p[0]));
-            double T = 1.0 - fresnel_unpolarized(cs, 1.0, w.ior);
+            const double F = fresnel_unpolarized(cs, 1.0, w.ior);
+            double T = air ? F : 1.0 - F;  // the flux reflected into the air, or transmitted
             Vec3 d_face;
             if (rough && !ocean_refraction(st.nf, w.ior, &d_face, &T, facet_u1, facet_u2)) continue;
             for (int k = 0; k < nbands; ++k) P.phi.v[k] = e_sun.v[k] * cs * area * T;
-            bool down = true;
+            bool down = true, up = true;
             // A water mesh's prism whose rays end on different faces (an object's edge at the
             // finest level) runs on to its longest ray: the shadow rays of each query find
             // where it is blocked, and an end face interpolated across the edge would cut off
@@ -413,10 +455,12 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
                 P.len[j] = run_on ? len_max : r[j].len;
                 P.hit[j] = r[j].id != -1;
                 down = down && -r[j].d.z > 0.1;
+                up = up && r[j].d.z > 0.1;
             }
             // Horizontal slices when the beam goes down (flux through horizontal planes is then
-            // exact per prism); slices normal to the mean direction for grazing beams.
-            P.m = down ? Vec3(0, 0, -1) : normalize(r[0].d + r[1].d + r[2].d);
+            // exact per prism), or up (reflected); slices normal to the mean direction for
+            // grazing beams.
+            P.m = down ? Vec3(0, 0, -1) : up ? Vec3(0, 0, 1) : normalize(r[0].d + r[1].d + r[2].d);
             bool ok = true;
             for (int j = 0; j < 3; ++j) {
                 P.md[j] = dot(P.m, P.d[j]);
@@ -425,9 +469,10 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             }
             if (!ok) continue;  // vertex rays diverging by > 90 deg: no consistent slicing
             P.n_src = st.nf;
-            P.water = st.water;
+            P.water = air ? -1 : st.water;
             P.periodic = st.periodic;
             P.partial_lit = lit < 3;
+            P.reflected = air;
             P.lo = Vec3(kInf, kInf, kInf);
             P.hi = Vec3(-kInf, -kInf, -kInf);
             for (int j = 0; j < 3; ++j)
@@ -456,8 +501,12 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         }
     });
     for (auto& v : out)
-        for (auto& p : v) prisms.push_back(p);
-    build_grid();
+        for (auto& p : v) dest->push_back(p);
+    };
+    make_prisms(false, &prisms);
+    if (need_air) make_prisms(true, &air_prisms);
+    build_grid(prisms, &prism_keys_, &grid_);
+    build_grid(air_prisms, &air_keys_, &air_grid_);
 }
 
 namespace {
@@ -617,14 +666,18 @@ void Scene::set_prism_checks(BeamPrism* P, bool uniform, bool ends_on_surface) c
     P->check_sun = opaque_in_boxes(boxes, tol, Vec3(), Vec3(), 0.0);
 }
 
-void Scene::build_grid() {
-    grid_ = BeamGrid();
-    prism_keys_.resize(prisms.size());
+void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys_out, BeamGrid* grid_out) {
+    HugeVector<PrismKey>& keys = *keys_out;
+    BeamGrid& grid = *grid_out;
+    grid = BeamGrid();
+    keys.resize(prisms.size());
     for (size_t pi = 0; pi < prisms.size(); ++pi) {
         const BeamPrism& P = prisms[pi];
-        PrismKey& K = prism_keys_[pi];
+        PrismKey& K = keys[pi];
         K.water = P.water;
-        K.horizontal = P.m.x == 0.0 && P.m.y == 0.0 && P.m.z == -1.0;
+        K.horizontal = P.m.x == 0.0 && P.m.y == 0.0 && (P.m.z == -1.0 || P.m.z == 1.0);
+        K.up = P.m.z == 1.0;
+        K.periodic = P.periodic;
         for (int j = 0; j < 3; ++j) {  // p_j = v_j + d_j (h - mv_j) / md_j
             K.bx[j] = P.d[j].x / P.md[j];
             K.by[j] = P.d[j].y / P.md[j];
@@ -636,20 +689,23 @@ void Scene::build_grid() {
     // The grid is sheared along the beams' typical drift (sx, sy) per metre of depth (the
     // median over the horizontally sliced prisms' rays): in coordinates u = x + sx z,
     // v = y + sy z, z a prism stands nearly upright, so cells can be tall (few marks per
-    // prism) and narrow (few candidates per query) at once.
+    // prism) and narrow (few candidates per query) at once. (A key's b is the drift per unit
+    // of h: h = -z going down, z going up.)
+    auto dxdz = [](const PrismKey& K, int j) { return K.up ? K.bx[j] : -K.bx[j]; };
+    auto dydz = [](const PrismKey& K, int j) { return K.up ? K.by[j] : -K.by[j]; };
     std::vector<double> bxs, bys;
-    for (const PrismKey& K : prism_keys_)
+    for (const PrismKey& K : keys)
         if (K.horizontal) {
-            bxs.push_back(K.bx[0]);
-            bys.push_back(K.by[0]);
+            bxs.push_back(-dxdz(K, 0));
+            bys.push_back(-dydz(K, 0));
         }
     auto median = [](std::vector<double>& v) {
         std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
         return v[v.size() / 2];
     };
     const double sx = bxs.empty() ? 0.0 : median(bxs), sy = bys.empty() ? 0.0 : median(bys);
-    grid_.sx = sx;
-    grid_.sy = sy;
+    grid.sx = sx;
+    grid.sy = sy;
     // Each prism is cut into pieces along its slicing axis; the box (in the sheared frame) of
     // each piece's six corner points marks its cells. The slices between ha and hb can bulge
     // out of the box of their end slices only through the lateral faces, which are ruled
@@ -686,10 +742,10 @@ void Scene::build_grid() {
         lo = Vec3(std::min(lo.x, blo.x), std::min(lo.y, blo.y), std::min(lo.z, blo.z));
         hi = Vec3(std::max(hi.x, bhi.x), std::max(hi.y, bhi.y), std::max(hi.z, bhi.z));
         widths.push_back(std::sqrt(std::max(1e-30, 0.5 * length(cross(P.v[1] - P.v[0], P.v[2] - P.v[0])))));
-        const PrismKey& K = prism_keys_[pi];
+        const PrismKey& K = keys[pi];
         if (K.horizontal) {  // how far its rays drift from the shear per metre of depth
             double dr = 0.0;
-            for (int j = 0; j < 3; ++j) dr = std::max(dr, std::hypot(K.bx[j] - sx, K.by[j] - sy));
+            for (int j = 0; j < 3; ++j) dr = std::max(dr, std::hypot(-dxdz(K, j) - sx, -dydz(K, j) - sy));
             drifts.push_back(dr);
         }
     }
@@ -716,12 +772,12 @@ void Scene::build_grid() {
         cxy *= 1.25;
         cz *= 1.25;
     }
-    grid_.lo = lo;
-    grid_.cell = Vec3(cxy, cxy, cz);
-    grid_.nx = int(std::floor(ext.x / cxy)) + 1;
-    grid_.ny = int(std::floor(ext.y / cxy)) + 1;
-    grid_.nz = int(std::floor(ext.z / cz)) + 1;
-    size_t ncell = size_t(grid_.nx) * grid_.ny * grid_.nz;
+    grid.lo = lo;
+    grid.cell = Vec3(cxy, cxy, cz);
+    grid.nx = int(std::floor(ext.x / cxy)) + 1;
+    grid.ny = int(std::floor(ext.y / cxy)) + 1;
+    grid.nz = int(std::floor(ext.z / cz)) + 1;
+    size_t ncell = size_t(grid.nx) * grid.ny * grid.nz;
     // The (cell, prism) marks are collected in prism order, then sorted by cell stably (a
     // counting sort: one allocation, where a list per cell made a build spend a tenth of its
     // time in malloc and free): a cell lists its prisms in order, so a point's beams are
@@ -733,19 +789,19 @@ void Scene::build_grid() {
         double h0, h1;
         span(P, &h0, &h1);
         // pieces about a cell tall (horizontal slicing) or wide (grazing beams)
-        const double step = prism_keys_[pi].horizontal ? cz : cxy;
+        const double step = keys[pi].horizontal ? cz : cxy;
         int pieces = std::max(1, std::min(100000, int(std::ceil((h1 - h0) / step))));
         for (int k = 0; k < pieces; ++k) {
             double ha = h0 + (h1 - h0) * k / pieces, hb = h0 + (h1 - h0) * (k + 1) / pieces;
             Vec3 blo, bhi;
             piece(P, ha, hb, &blo, &bhi);
-            int x0 = std::clamp(int((blo.x - lo.x) / cxy), 0, grid_.nx - 1), x1 = std::clamp(int((bhi.x - lo.x) / cxy), 0, grid_.nx - 1);
-            int y0 = std::clamp(int((blo.y - lo.y) / cxy), 0, grid_.ny - 1), y1 = std::clamp(int((bhi.y - lo.y) / cxy), 0, grid_.ny - 1);
-            int z0 = std::clamp(int((blo.z - lo.z) / cz), 0, grid_.nz - 1), z1 = std::clamp(int((bhi.z - lo.z) / cz), 0, grid_.nz - 1);
+            int x0 = std::clamp(int((blo.x - lo.x) / cxy), 0, grid.nx - 1), x1 = std::clamp(int((bhi.x - lo.x) / cxy), 0, grid.nx - 1);
+            int y0 = std::clamp(int((blo.y - lo.y) / cxy), 0, grid.ny - 1), y1 = std::clamp(int((bhi.y - lo.y) / cxy), 0, grid.ny - 1);
+            int z0 = std::clamp(int((blo.z - lo.z) / cz), 0, grid.nz - 1), z1 = std::clamp(int((bhi.z - lo.z) / cz), 0, grid.nz - 1);
             for (int z = z0; z <= z1; ++z)
                 for (int y = y0; y <= y1; ++y)
                     for (int x = x0; x <= x1; ++x) {
-                        size_t c = (size_t(z) * grid_.ny + y) * grid_.nx + x;
+                        size_t c = (size_t(z) * grid.ny + y) * grid.nx + x;
                         if (last[c] == int64_t(pi)) continue;
                         last[c] = int64_t(pi);
                         mark_cell.push_back(uint32_t(c));
@@ -753,12 +809,12 @@ void Scene::build_grid() {
                     }
         }
     }
-    grid_.start.assign(ncell + 1, 0);
-    for (uint32_t c : mark_cell) grid_.start[c + 1]++;
-    for (size_t c = 0; c < ncell; ++c) grid_.start[c + 1] += grid_.start[c];
-    grid_.items.resize(mark_cell.size());
-    std::vector<uint32_t> fill(grid_.start.begin(), grid_.start.end() - 1);
-    for (size_t i = 0; i < mark_cell.size(); ++i) grid_.items[fill[mark_cell[i]]++] = mark_prism[i];
+    grid.start.assign(ncell + 1, 0);
+    for (uint32_t c : mark_cell) grid.start[c + 1]++;
+    for (size_t c = 0; c < ncell; ++c) grid.start[c + 1] += grid.start[c];
+    grid.items.resize(mark_cell.size());
+    std::vector<uint32_t> fill(grid.start.begin(), grid.start.end() - 1);
+    for (size_t i = 0; i < mark_cell.size(); ++i) grid.items[fill[mark_cell[i]]++] = mark_prism[i];
 }
 
 bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, BeamSample* out,
@@ -780,7 +836,8 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
     double l = l0 * t[0] + l1 * t[1] + l2 * t[2];
     double lend = l0 * P.len[0] + l1 * P.len[1] + l2 * P.len[2];
     if (l < 0.0 || l > lend) return false;
-    if (dot(y - P.v[0], P.n_src) > 0.0) return false;  // above the source surface (in air)
+    // on the wrong side of the source surface (in the air, or in the water for a reflected beam)
+    if (P.reflected ? dot(y - P.v[0], P.n_src) < 0.0 : dot(y - P.v[0], P.n_src) > 0.0) return false;
     Vec3 d = normalize(P.d[0] * l0 + P.d[1] * l1 + P.d[2] * l2);
     double md = dot(P.m, d);
     if (!(md > 0.0)) return false;
@@ -790,7 +847,6 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
     // the cross-section is only kept above a tiny fraction of the source cell's area
     // (beam_min_area_fraction, 1e-6): irradiance at most 1e6 times the cell's, and the flux
     // lost in slices thinner than that is negligible (flux conservation is tested to 1e-5).
-    const Water& w = waters[P.water];
     double src_area = 0.5 * length(cross(P.v[1] - P.v[0], P.v[2] - P.v[0]));
     double a_eff = std::max(std::fabs(S), beam_min_area_fraction * src_area);
     if (P.check_path || P.check_sun) {
@@ -823,6 +879,11 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
     }
     out->d = d;
     out->l = l;
+    if (P.water < 0) {  // reflected into the air: nothing attenuates it
+        for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] / (a_eff * md);
+        return true;
+    }
+    const Water& w = waters[P.water];
     if (!w.varying() || !exact) {
         const Spectrum& c = w.layers[0].c_beam;
         for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * std::exp(-c.v[k] * l) / (a_eff * md);
@@ -841,7 +902,25 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
 
 int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool exact) const {
     int n = 0;
-    if (medium < 0 || max <= 0) return 0;
+    if (max <= 0) return 0;
+    if (medium < 0) {  // the reflected sun in the air
+        if (flat_air_beam && x.z > ocean_z) {
+            const double l = (x.z - ocean_z) / flat_air_d.z;
+            bool visible = true;
+            if (!meshes.empty()) {
+                const double off = offset_for(x);
+                visible = !occluded_segment(x, -flat_air_d, std::max(0.0, l - 2.0 * off)) &&
+                          !occluded(x - flat_air_d * l + Vec3(0, 0, off), beam_sun_dir);
+            }
+            if (visible) {
+                out[n].d = flat_air_d;
+                out[n].e = flat_air_e;
+                out[n].l = l;
+                ++n;
+            }
+        }
+        return lookup(air_prisms, air_keys_, air_grid_, x, -1, out, n, max, exact);
+    }
     if (flat_beam && medium == ocean_water && x.z < ocean_z && (!has_bottom || x.z > bottom_z)) {
         const Water& w = waters[medium];
         for (size_t i = 0; i < flat_d.size() && n < max; ++i) {
@@ -880,31 +959,37 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool ex
             }
         }
     }
-    if (grid_.nx == 0) return n;
-    bool periodic = ocean_water >= 0 && !ocean_flat && medium == ocean_water;
+    return lookup(prisms, prism_keys_, grid_, x, medium, out, n, max, exact);
+}
+
+int Scene::lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
+                  const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const {
+    if (grid.nx == 0) return n;
+    // Below (or above) the periodic patch the beams of every period meet at x.
+    bool periodic = ocean_water >= 0 && !ocean_flat && (medium == ocean_water || medium < 0);
     long i0 = 0, i1 = 0, j0 = 0, j1 = 0;
-    Vec3 ghi = grid_.lo + Vec3(grid_.nx * grid_.cell.x, grid_.ny * grid_.cell.y, grid_.nz * grid_.cell.z);
+    Vec3 ghi = grid.lo + Vec3(grid.nx * grid.cell.x, grid.ny * grid.cell.y, grid.nz * grid.cell.z);
     // (in the grid's sheared frame: a shift by whole periods is horizontal there too)
-    const double xu = x.x + grid_.sx * x.z, xv = x.y + grid_.sy * x.z;
+    const double xu = x.x + grid.sx * x.z, xv = x.y + grid.sy * x.z;
     if (periodic) {
-        i0 = long(std::ceil((xu - ghi.x) / patch_lx)); i1 = long(std::floor((xu - grid_.lo.x) / patch_lx));
-        j0 = long(std::ceil((xv - ghi.y) / patch_ly)); j1 = long(std::floor((xv - grid_.lo.y) / patch_ly));
+        i0 = long(std::ceil((xu - ghi.x) / patch_lx)); i1 = long(std::floor((xu - grid.lo.x) / patch_lx));
+        j0 = long(std::ceil((xv - ghi.y) / patch_ly)); j1 = long(std::floor((xv - grid.lo.y) / patch_ly));
     }
     for (long i = i0; i <= i1; ++i)
         for (long j = j0; j <= j1; ++j) {
             Vec3 y = x - Vec3(double(i) * patch_lx, double(j) * patch_ly, 0.0);
-            int cx = int(std::floor((xu - double(i) * patch_lx - grid_.lo.x) / grid_.cell.x));
-            int cy = int(std::floor((xv - double(j) * patch_ly - grid_.lo.y) / grid_.cell.y));
-            int cz = int(std::floor((y.z - grid_.lo.z) / grid_.cell.z));
-            if (cx < 0 || cy < 0 || cz < 0 || cx >= grid_.nx || cy >= grid_.ny || cz >= grid_.nz) continue;
-            size_t c = (size_t(cz) * grid_.ny + cy) * grid_.nx + cx;
-            const double h = -y.z;
-            for (uint32_t k = grid_.start[c]; k < grid_.start[c + 1]; ++k) {
-                const uint32_t pi = grid_.items[k];
-                const PrismKey& K = prism_keys_[pi];
+            int cx = int(std::floor((xu - double(i) * patch_lx - grid.lo.x) / grid.cell.x));
+            int cy = int(std::floor((xv - double(j) * patch_ly - grid.lo.y) / grid.cell.y));
+            int cz = int(std::floor((y.z - grid.lo.z) / grid.cell.z));
+            if (cx < 0 || cy < 0 || cz < 0 || cx >= grid.nx || cy >= grid.ny || cz >= grid.nz) continue;
+            size_t c = (size_t(cz) * grid.ny + cy) * grid.nx + cx;
+            for (uint32_t k = grid.start[c]; k < grid.start[c + 1]; ++k) {
+                const uint32_t pi = grid.items[k];
+                const PrismKey& K = keys[pi];
                 if (K.water != medium) continue;
-                if ((i != 0 || j != 0) && !(periodic && K.water == ocean_water)) continue;
+                if ((i != 0 || j != 0) && !K.periodic) continue;
                 if (K.horizontal) {
+                    const double h = K.up ? y.z : -y.z;
                     // The slice's corners and y's edge functions; prism_eval's barycentric test
                     // with a tolerance a thousand times looser (rounding of the corners here
                     // differs from its own by ~1e-16 relative).

@@ -150,7 +150,7 @@ Vec3 Scene::sample_beam_direction(const Water& w, const Vec3& beam_d, Rng& rng) 
 }
 
 Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
-                        Counters& c, double first_beam_weight, bool camera) const {
+                        Counters& c, double first_beam_weight, bool camera, bool reflect_covered) const {
     const int nb = nbands;
     Components out;
     Spectrum beta = Spectrum::constant(1.0);
@@ -188,6 +188,11 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
         pending = 0.0;
     };
     const double cone_x = 1.0 - std::cos(cone_half_angle);
+    // The reflected beams in the air count the sun that reaches a point in the air by one
+    // reflection on the water: from a vertex where they were looked up (1), a path that
+    // reflects once on the water from the air side (2) and then escapes into the sun has
+    // found light they already counted.
+    int reflect_state = reflect_covered ? 1 : 0;
     double bv_weight = first_beam_weight;  // MIS weight of this segment's beam scattering
     // Gridded water (per segment): the walk along it, and its beam term waiting for it.
     std::optional<VoxelGrid::Cursor> gcursor;
@@ -467,7 +472,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
 
         if (!h.valid) {  // escaped to the environment
             Spectrum sky = sky_radiance(d);
-            bool sun = !sun_covered && !beam_covered && in_sun(d);
+            bool sun = !sun_covered && !beam_covered && reflect_state != 2 && in_sun(d);
             for (int k = 0; k < nb; ++k)
                 out.path.v[k] += beta.v[k] * (sky.v[k] + (sun ? sun_radiance.v[k] : 0.0));
             return out;
@@ -510,6 +515,21 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     for (int k = 0; k < nb; ++k)
                         out.beam_surface.v[k] += beta.v[k] * m.reflectance.v[k] * kInvPi * cs * beams[j].e.v[k];
                 }
+            }
+            // The sun reflected into the air by the water's smooth surfaces, on a surface in the
+            // air (the reflected beams' light; path tracing would find it only by escaping
+            // into the sun's disk after a reflection on the water: rare, bright samples).
+            reflect_state = 0;
+            if (hybrid && medium < 0 && has_air_beams()) {
+                thread_local BeamSample air[kMaxBeams];
+                const int na = beams_at(xo, -1, air, kMaxBeams);
+                for (int j = 0; j < na; ++j) {
+                    double cs = -dot(air[j].d, n);
+                    if (cs <= 0.0) continue;
+                    for (int k = 0; k < nb; ++k)
+                        out.beam_surface.v[k] += beta.v[k] * m.reflectance.v[k] * kInvPi * cs * air[j].e.v[k];
+                }
+                reflect_state = 1;
             }
             sun_covered = nee;
             beam_covered = hybrid && medium >= 0;
@@ -596,18 +616,20 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             medium = to_air ? -1 : h.index;
             sun_covered = has_sun;  // by the estimate above, or by the beams (hybrid, from below)
             beam_covered = false;
+            reflect_state = 0;
         } else {
-            // Water boundary with outward normal h.n. The ocean patch reflects and refracts
-            // about its shading normal, as its beams do (else paths and beams would see two
-            // different surfaces: facets and the smooth one), where both outcomes then leave on
-            // their own side of the facet; elsewhere, and where they would not, about h.n.
+            // Water boundary with outward normal h.n. The ocean patch and water meshes reflect
+            // and refract about their smooth shading normals, as their beams do (else paths and
+            // beams would see two different surfaces: facets and the smooth one), where both
+            // outcomes then leave on their own side of the facet; a flat sea, and where they
+            // would not, about h.n.
             const Water& w = waters[h.index];
             bool entering = dot(d, h.n) < 0.0;
             double n1 = entering ? 1.0 : w.ior, n2 = entering ? w.ior : 1.0;
             const Vec3 ng = entering ? h.n : -h.n;  // the facet's, on the arriving side
             Vec3 nf = ng;
             Vec3 dtr;
-            if (h.id == -3 && !ocean_flat) {
+            if (h.id == -3 ? !ocean_flat : h.id >= 0) {
                 const Vec3 ns = entering ? h.ns : -h.ns;
                 Vec3 t;
                 const bool tir = !refract(d, ns, n1, n2, &t);
@@ -619,7 +641,9 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 d = normalize(reflect(d, nf));
                 o = x + ng * off;
                 beam_covered = false;  // a reflected path is not a beam's straight line
+                reflect_state = reflect_state == 1 && entering ? 2 : 0;
             } else {
+                reflect_state = 0;
                 if (!entering) flush(w);  // leaving the water: beta must carry its absorption
                 double r = n1 / n2;
                 for (int k = 0; k < nb; ++k) beta.v[k] *= r * r;  // radiance n^2 law
@@ -769,6 +793,9 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
     }
     bool sensor_nee = has_sun && r.medium < 0;
     bool sensor_beams = hybrid && r.medium >= 0;
+    // In the air: the sun reflected by the water reaching the sensor, in closed form from the
+    // reflected beams at it (its paths then leave that light to them).
+    const bool sensor_air_beams = hybrid && r.medium < 0 && has_air_beams();
     double first_weight = 1.0;
     // The beams at the radiometer serve both the MIS below and the closed-form direct term.
     const BeamSample* beams = at_sensor;
@@ -807,7 +834,8 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
             for (int k = 0; k < nbands; ++k) out[2].v[k] += resp * I.v[k] / (pa_b + pb_b);
         }
     }
-    Components L = trace(r.position, w, r.medium, sensor_nee, sensor_beams, rng, c, first_weight);
+    Components L = trace(r.position, w, r.medium, sensor_nee, sensor_beams, rng, c, first_weight, false,
+                         sensor_air_beams);
     for (int k = 0; k < nbands; ++k) {
         out[1].v[k] = L.beam_surface.v[k] * weight;
         out[2].v[k] += L.beam_volume.v[k] * weight;
@@ -823,9 +851,9 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
                 for (int k = 0; k < nbands; ++k) out[3].v[k] += resp * sun_radiance.v[k] / sun_pdf();
         }
     }
-    if (sensor_beams) {
-        // The refracted sun at the radiometer itself, in closed form.
-        for (int j = 0; j < nbeams; ++j) {
+    if (sensor_beams || sensor_air_beams) {
+        // The refracted (or, in the air, reflected) sun at the radiometer itself, in closed form.
+        for (int j = 0; j < n_at_sensor; ++j) {
             double resp = response(-beams[j].d);
             if (resp > 0.0)
                 for (int k = 0; k < nbands; ++k) out[4].v[k] += resp * beams[j].e.v[k];
@@ -869,7 +897,8 @@ void Scene::render_radiometer(int ri, uint64_t start, uint64_t count, int thread
     // The beams at the sensor: fixed within the pass (its position and these beams), so
     // evaluated once, not per sample (in gridded water each is a walk to the surface).
     std::vector<BeamSample> at_sensor(kMaxBeams);
-    const int n_at_sensor = hybrid && r.medium >= 0 ? beams_at(r.position, r.medium, at_sensor.data(), kMaxBeams) : 0;
+    const int n_at_sensor = hybrid && (r.medium >= 0 || has_air_beams())
+                                ? beams_at(r.position, r.medium, at_sensor.data(), kMaxBeams) : 0;
     parallel_for(nchunks, nthreads, [&](size_t chunk, int tid) {
         if (cancel_flag.load(std::memory_order_relaxed)) return;
         uint64_t b = start + chunk * kChunk, e = std::min(start + count, b + kChunk);

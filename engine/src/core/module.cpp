@@ -144,6 +144,9 @@ PYBIND11_MODULE(_core, m) {
         .def_property_readonly("beam_count", [](const Scene& s) { return s.prisms.size(); })
         .def_property_readonly("has_flat_beam", [](const Scene& s) { return s.flat_beam; })
         .def("beam_total_flux", &Scene::beam_total_flux)
+        .def_property_readonly("air_beam_count", [](const Scene& s) { return s.air_prisms.size(); })
+        .def_property_readonly("has_air_beams", [](const Scene& s) { return s.has_air_beams(); })
+        .def("air_beam_total_flux", &Scene::air_beam_total_flux)
         .def("beams_at", [](const Scene& s, std::array<double, 3> x, int medium) {
             BeamSample buf[256];
             int n = s.beams_at(to_vec(x), medium, buf, 256);

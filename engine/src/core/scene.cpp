@@ -67,7 +67,9 @@ void Scene::commit() {
         lo = Vec3(std::min(lo.x, x), std::min(lo.y, y), std::min(lo.z, z));
         hi = Vec3(std::max(hi.x, x), std::max(hi.y, y), std::max(hi.z, z));
     };
-    for (const auto& m : meshes) {
+    for (auto& m : meshes) {
+        if (m.kind == SurfaceKind::kWaterBoundary && m.corner_normals.size() != 3 * m.triangles.size())
+            smooth_corner_normals(&m);
         ptrs.push_back(&m);
         for (size_t i = 0; i + 2 < m.vertices.size(); i += 3) grow(m.vertices[i], m.vertices[i + 1], m.vertices[i + 2]);
     }
@@ -100,10 +102,43 @@ void Scene::commit() {
         extent_ = std::max(1e-3, length(hi - lo));
         eps_ = 1e-6 * extent_;
     }
+    bounds_lo_ = lo.x <= hi.x ? lo : Vec3(-1, -1, -1);
+    bounds_hi_ = lo.x <= hi.x ? hi : Vec3(1, 1, 1);
     set_forward_cone(cone_half_angle);
     // Rays start on the near clipping plane, so the medium is the one there.
     for (auto& c : cameras) c.medium = medium_at(c.position + c.forward * c.clip_start);
     for (auto& r : radiometers) r.medium = medium_at(r.position);
+}
+
+void smooth_corner_normals(MeshRecord* mp) {
+    MeshRecord& m = *mp;
+    const size_t nt = m.triangles.size() / 3, nv = m.vertices.size() / 3;
+    auto V = [&](uint32_t i) { return Vec3(m.vertices[3 * i], m.vertices[3 * i + 1], m.vertices[3 * i + 2]); };
+    std::vector<Vec3> fn(nt);
+    std::vector<uint32_t> start(nv + 1, 0), faces;
+    for (size_t t = 0; t < nt; ++t) {
+        const uint32_t* tri = &m.triangles[3 * t];
+        fn[t] = cross(V(tri[1]) - V(tri[0]), V(tri[2]) - V(tri[0]));  // length: twice the area
+        for (int j = 0; j < 3; ++j) start[tri[j] + 1]++;
+    }
+    for (size_t i = 0; i < nv; ++i) start[i + 1] += start[i];
+    faces.resize(start[nv]);
+    std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+    for (size_t t = 0; t < nt; ++t)
+        for (int j = 0; j < 3; ++j) faces[fill[m.triangles[3 * t + j]]++] = uint32_t(t);
+    const double cos_limit = std::cos(30.0 * kPi / 180.0);
+    m.corner_normals.assign(9 * nt, 0.0f);
+    for (size_t t = 0; t < nt; ++t) {
+        const uint32_t* tri = &m.triangles[3 * t];
+        const Vec3 nf = normalize(fn[t]);
+        for (int j = 0; j < 3; ++j) {
+            Vec3 sum;
+            for (uint32_t k = start[tri[j]]; k < start[tri[j] + 1]; ++k)
+                if (dot(normalize(fn[faces[k]]), nf) > cos_limit) sum += fn[faces[k]];
+            const Vec3 n = normalize(sum);
+            for (int c = 0; c < 3; ++c) m.corner_normals[9 * t + 3 * j + c] = float(n[c]);
+        }
+    }
 }
 
 void Scene::smooth_patch_normals() {
@@ -211,8 +246,16 @@ Hit Scene::intersect(const Vec3& o, const Vec3& d, double tmax) const {
         hit.t = rh.ray.tfar;
         // Embree's geometric normal is (v1 - v0) x (v2 - v0), the same winding convention.
         hit.n = normalize(Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z));
+        hit.ns = hit.n;
         hit.kind = m.kind;
         hit.index = m.index;
+        if (!m.corner_normals.empty()) {  // a water boundary: its smooth shading normal
+            const float* c = &m.corner_normals[9 * size_t(rh.hit.primID)];
+            const double u = rh.hit.u, v = rh.hit.v, w0 = 1.0 - u - v;
+            const Vec3 ns = normalize(Vec3(w0 * c[0] + u * c[3] + v * c[6], w0 * c[1] + u * c[4] + v * c[7],
+                                           w0 * c[2] + u * c[5] + v * c[8]));
+            if (dot(ns, hit.n) > 0.0) hit.ns = ns;
+        }
     }
     Hit oh = intersect_ocean(o, d, hit.t);
     return oh.valid ? oh : hit;

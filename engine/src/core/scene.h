@@ -230,7 +230,14 @@ struct MeshRecord {  // one Embree geometry of the main scene
     int index = 0;   // material (opaque) or water body (boundary)
     std::vector<float> vertices;      // xyz
     std::vector<uint32_t> triangles;  // ijk
+    // A water boundary's smooth shading normals at each triangle's corners (9 per triangle,
+    // outward): the area-weighted normals of the faces around the vertex that turn by less
+    // than 30 deg from the triangle, so that a wave surface refracts and reflects
+    // continuously (beams and paths alike) while the sharp edges of a box stay sharp. Made at
+    // commit (smooth_corner_normals).
+    std::vector<float> corner_normals;
 };
+void smooth_corner_normals(MeshRecord* m);
 
 struct Hit {
     int id = -1;          // Embree geometry id; -2 ocean bottom, -3 ocean surface
@@ -294,12 +301,15 @@ struct BeamPrism {
     // shadow rays at query time instead.
     bool periodic = false;
     bool partial_lit = false;       // a vertex of its source is in a wave's shadow
+    // The sun reflected by the water surface into the air (water = -1: no attenuation), lit
+    // on the air side of its source.
+    bool reflected = false;
     Vec3 lo, hi;       // bounding box
 };
 
 // Component passes of the hybrid integrator.
 struct Components {
-    Spectrum beam_surface;  // refracted sun from beams on underwater surfaces
+    Spectrum beam_surface;  // the sun from beams on surfaces (refracted under water, reflected in the air)
     Spectrum beam_volume;   // single scattering of beams along traced water segments
     Spectrum path;          // everything path tracing finds itself (sky, sun above water, ...)
 };
@@ -365,8 +375,15 @@ public:
     double cone_half_angle = 0.0;     // forward-scattering cone (radians); 0: full phase function
     int beam_max_level = 5;           // adaptive subdivision levels of a surface triangle
     double beam_min_area_fraction = 1e-6;  // floor of a cross-section, times the source area
-    // Beams of the current pass (rebuilt for every sun direction drawn in the disk).
+    // Beams of the current pass (rebuilt for every sun direction drawn in the disk): the
+    // refracted sun in the water, and the sun reflected by smooth water surfaces into the air
+    // (where opaque objects or radiometers stand in the air).
     HugeVector<BeamPrism> prisms;
+    HugeVector<BeamPrism> air_prisms;
+    // The sun reflected by a smooth flat ocean: one analytic beam in the air.
+    bool flat_air_beam = false;
+    Vec3 flat_air_d;
+    Spectrum flat_air_e;
     bool flat_beam = false;           // analytic beam(s) below a flat ocean
     // Their refracted directions and irradiances normal to them just below the surface: one
     // beam for a smooth surface, kRoughFlatBeams facets (stratified) for a rough one.
@@ -388,12 +405,14 @@ public:
     // one sub-pixel facet orientation (relative to each local normal) for this build: over
     // builds, the beams then spread as the rough BTDF says (in expectation).
     void build_beams(const Vec3& sun_direction, int threads, double facet_u1 = 0.5, double facet_u2 = 0.0);
-    // Every beam covering x (in water body `medium`); returns how many were written (<= max).
+    // Every beam covering x (in water body `medium`, or -1: the reflected beams in the air);
+    // returns how many were written (<= max).
     // exact = false: in stratified or gridded water each beam's irradiance is attenuated with
     // the top or base layer's coefficients only (no walk through the layers or voxels): enough
     // to rank the beams, as strongest_beam does.
     int beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool exact = true) const;
     double beam_total_flux() const;   // sum of prism fluxes entering the water (band 0)
+    double air_beam_total_flux() const;   // sum of the reflected prisms' fluxes (band 0)
 
     void commit();                    // builds the BVHs and resolves sensor media
 
@@ -423,9 +442,13 @@ public:
     // first_beam_weight: MIS weight of the first segment's beam scattering (radiometers).
     // camera: a pixel's path, whose beam-direction samples follow beam_mis_share (a
     // radiometer's always take them: its other noise is small, so they pay even in clear water).
+    // reflect_covered: the reflected beams in the air already count the sun reaching o by one
+    // reflection on the water (a radiometer in the air, hybrid).
     Components trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
-                     Counters& c, double first_beam_weight = 1.0, bool camera = false) const;
+                     Counters& c, double first_beam_weight = 1.0, bool camera = false,
+                     bool reflect_covered = false) const;
     bool has_beams() const { return flat_beam || !prisms.empty(); }
+    bool has_air_beams() const { return flat_air_beam || !air_prisms.empty(); }
     // Beam single scattering seen from o along d over [0, T] in water `medium` (per band,
     // without the throughput), one distance sample.
     // deferred_t: in gridded water, the attenuation from o to the point drawn is left out and
@@ -493,10 +516,19 @@ private:
     struct PrismKey {
         double ax[3], bx[3], ay[3], by[3];
         int water;
-        bool horizontal;
+        bool horizontal;  // sliced by horizontal planes: h = -z (down) or z (up)
+        bool up;
+        bool periodic;    // below (or above) the periodic ocean patch: looked up in every period
     };
     HugeVector<PrismKey> prism_keys_;
-    void build_grid();
+    BeamGrid air_grid_;
+    HugeVector<PrismKey> air_keys_;
+    static void build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys, BeamGrid* grid);
+    // The prisms of one set (keys and grid) covering x, appended to out from index n.
+    int lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
+               const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const;
+    // Scene bounds (meshes, sensors, the ocean patch): where reflected beams can end.
+    Vec3 bounds_lo_{-1, -1, -1}, bounds_hi_{1, 1, 1};
     // Whether an opaque triangle may lie in the union of boxes [lo_i, hi_i] (grown by tol),
     // other than those entirely on or behind the plane through plane_p with normal plane_n
     // (pointing into the region; plane_n = 0: none excluded). Conservative: true when more
