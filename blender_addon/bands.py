@@ -110,5 +110,11 @@ def bands_to_rgba(image: np.ndarray, bands, variance: bool = False) -> np.ndarra
     if m is None:
         out[:, :, :3] = image[:, :, display_indices(bands)]
     else:
-        out[:, :, :3] = image @ (m * m if variance else m)
+        w = m * m if variance else m
+        finite = np.isfinite(image)
+        out[:, :, :3] = np.where(finite, image, 0.0) @ w
+        # an unknown (infinite) variance stays infinite in every channel it weighs in (inf
+        # times a zero weight would be NaN)
+        if not np.all(finite):
+            out[:, :, :3][((~finite).astype(float) @ (w != 0)) > 0] = np.inf
     return out

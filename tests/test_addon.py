@@ -777,3 +777,15 @@ def test_panels_draw_every_property_they_name(empty, role):
             if cls.poll(context):
                 cls.draw(SimpleNamespace(layout=FakeLayout(shown)), context)
     assert "role" in shown and "integrator" in shown and "sky_model" in shown
+
+
+def test_unknown_variances_stay_infinite_in_the_display_passes():
+    """A pixel with fewer than 2 samples has variance inf: the Variance pass shows inf in the
+    channels its bands weigh in, never NaN (inf times a zero weight)."""
+    from photic_blender.bands import bands_to_rgba
+    bands = [(f"{c}", float(c), 10.0) for c in range(400, 701, 30)]
+    var = np.full((2, 3, len(bands)), 0.01)
+    var[0, 1, :] = np.inf
+    out = bands_to_rgba(var, bands, variance=True)
+    assert not np.any(np.isnan(out))
+    assert np.all(np.isinf(out[0, 1, :3])) and np.all(np.isfinite(out[1, :, :3]))
