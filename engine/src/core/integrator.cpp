@@ -958,7 +958,8 @@ void Scene::render_radiometer(int ri, uint64_t start, uint64_t count, int thread
         }
 }
 
-void Scene::trace_rays(const float* o, const float* d, size_t n, int threads, float* t_out) const {
+void Scene::trace_rays(const float* o, const float* d, size_t n, int threads, float* t_out,
+                       const float* tmax) const {
     const size_t kBlock = 4096;
     size_t nblocks = (n + kBlock - 1) / kBlock;
     parallel_for(nblocks, threads, [&](size_t blk, int) {
@@ -969,7 +970,7 @@ void Scene::trace_rays(const float* o, const float* d, size_t n, int threads, fl
             RTCRayHit rh;
             rh.ray.org_x = o[3 * i]; rh.ray.org_y = o[3 * i + 1]; rh.ray.org_z = o[3 * i + 2];
             rh.ray.dir_x = d[3 * i]; rh.ray.dir_y = d[3 * i + 1]; rh.ray.dir_z = d[3 * i + 2];
-            rh.ray.tnear = 0.0f; rh.ray.tfar = std::numeric_limits<float>::infinity();
+            rh.ray.tnear = 0.0f; rh.ray.tfar = tmax ? tmax[i] : std::numeric_limits<float>::infinity();
             rh.ray.time = 0.0f; rh.ray.mask = 0xFFFFFFFFu; rh.ray.id = 0; rh.ray.flags = 0;
             rh.hit.geomID = RTC_INVALID_GEOMETRY_ID; rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
             rtcIntersect1(scene_, &ctx, &rh);

@@ -504,16 +504,23 @@ PYBIND11_MODULE(_core, m) {
            "One pass of samples [start, start + count): (sum, sum of squares, counters); out as for "
            "render_camera; moments: a (bins, 3, bands) array filled with the total's central sums of "
            "powers 2, 3, 4 about the pass's mean.")
-        .def("trace_rays", [](const Scene& s, FArray o, FArray d, int threads) {
+        .def("trace_rays", [](const Scene& s, FArray o, FArray d, int threads, py::object tmax) {
             if (o.ndim() != 2 || o.shape(1) != 3 || d.ndim() != 2 || d.shape(1) != 3 || o.shape(0) != d.shape(0))
                 throw std::invalid_argument("origins and directions must be matching (N, 3) arrays");
             size_t n = size_t(o.shape(0));
+            FArray tm;
+            if (!tmax.is_none()) {
+                tm = tmax.cast<FArray>();
+                if (tm.ndim() != 1 || size_t(tm.shape(0)) != n)
+                    throw std::invalid_argument("tmax must be an (N,) array matching the rays");
+            }
             FArray t(n);
             {
                 py::gil_scoped_release nogil;
-                s.trace_rays(o.data(), d.data(), n, threads, t.mutable_data());
+                s.trace_rays(o.data(), d.data(), n, threads, t.mutable_data(), tmax.is_none() ? nullptr : tm.data());
             }
             return t;
-        }, py::arg("origins"), py::arg("directions"), py::arg("threads") = 0,
-           "Closest-hit distances (-1 for a miss) of the main Embree scene: raw ray throughput.");
+        }, py::arg("origins"), py::arg("directions"), py::arg("threads") = 0, py::arg("tmax") = py::none(),
+           "Closest-hit distances (-1 for a miss) of the main Embree scene: raw ray throughput; "
+           "tmax: per-ray far limits (default: rays to infinity).");
 }

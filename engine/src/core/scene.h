@@ -491,7 +491,8 @@ public:
     void radiometer_sample(int rad, uint64_t index, const BeamSample* at_sensor, int n_at_sensor,
                            Spectrum* out, int* bin, Counters& c) const;
 
-    void trace_rays(const float* o, const float* d, size_t n, int threads, float* t_out) const;
+    void trace_rays(const float* o, const float* d, size_t n, int threads, float* t_out,
+                    const float* tmax = nullptr) const;
 
     std::atomic<bool> cancel_flag{false};
     double scene_extent() const { return extent_; }
