@@ -88,7 +88,7 @@ def _phase_g(phase) -> float:
     return 0.0
 
 
-def build(scene, camera: str, resolution, threads: int):
+def build(scene, camera: str, resolution, threads: int, full_bounces: bool = False):
     """The Photic ``scene`` as a Cycles scene in a fresh file; returns the Blender scene."""
     import bpy
 
@@ -150,10 +150,15 @@ def build(scene, camera: str, resolution, threads: int):
     cy.use_adaptive_sampling = False
     cy.use_denoising = False
     cy.seed = 1
+    if full_bounces:  # the light transport Photic computes: no bounce limit short of its own
+        for attr in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces",
+                     "volume_bounces", "transparent_max_bounces"):
+            setattr(cy, attr, scene.settings.max_depth)
     return bscene
 
 
-def render(scene_path: str, camera: str, resolution, samples, threads: int, exr: str | None) -> dict:
+def render(scene_path: str, camera: str, resolution, samples, threads: int, exr: str | None,
+           full_bounces: bool = False) -> dict:
     from photic.cli import load_addon
     from photic.scene import load_scene
 
@@ -161,7 +166,7 @@ def render(scene_path: str, camera: str, resolution, samples, threads: int, exr:
 
     load_addon()
     scene = load_scene(scene_path)
-    bscene = build(scene, camera, resolution, threads)
+    bscene = build(scene, camera, resolution, threads, full_bounces)
     runs = []
     for i, n in enumerate(sorted(samples)):
         bscene.cycles.samples = int(n)
@@ -195,8 +200,11 @@ def main(argv=None) -> int:
     p.add_argument("--samples", type=int, nargs="+", default=[16, 64])
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--exr", default=None)
+    p.add_argument("--full-bounces", action="store_true",
+                   help="raise Cycles' bounce limits to the scene's max_depth (Photic's light transport)")
     args = p.parse_args(argv)
-    out = render(args.scene, args.camera, args.resolution, args.samples, args.threads, args.exr)
+    out = render(args.scene, args.camera, args.resolution, args.samples, args.threads, args.exr,
+                 args.full_bounces)
     print(json.dumps(out))
     return 0
 

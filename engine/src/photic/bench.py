@@ -734,10 +734,13 @@ def bpy_available() -> bool:
     return importlib.util.find_spec("bpy") is not None
 
 
-def run_cycles_pool(resolution=(256, 256), samples=(16, 64), threads: int = 2, workdir=None) -> dict | None:
+def run_cycles_pool(resolution=(256, 256), samples=(16, 64), threads: int = 2, workdir=None,
+                    full_bounces: bool = False) -> dict | None:
     """Cycles on the stepped pool's underwater view, in a separate process through the add-on
     (``blender_addon/cycles_compare.py``): CPU seconds per sample (the marginal cost between
-    the two sample counts) and the linear image at the larger one. None without ``bpy``."""
+    the two sample counts) and the linear image at the larger one. ``full_bounces``: Cycles'
+    bounce limits raised to the scene's max_depth (its defaults stop after 4 diffuse bounces,
+    which in the pool leaves out ~40 % of the light). None without ``bpy``."""
     import json
     import subprocess
     import sys
@@ -756,7 +759,7 @@ def run_cycles_pool(resolution=(256, 256), samples=(16, 64), threads: int = 2, w
     exr = work / "cycles.exr"
     cmd = [sys.executable, str(find_addon() / "cycles_compare.py"), str(work / "pool.json"),
            "--camera", "under", "--resolution", *map(str, resolution), "--samples", *map(str, samples),
-           "--threads", str(threads), "--exr", str(exr)]
+           "--threads", str(threads)] + (["--full-bounces"] if full_bounces else ["--exr", str(exr)])
     run = subprocess.run(cmd, capture_output=True, text=True, timeout=3600)
     lines = [ln for ln in run.stdout.splitlines() if ln.startswith("{")]
     if run.returncode != 0 or not lines:
@@ -818,6 +821,12 @@ def speed_summary(records: list[dict], waves: dict | None, cycles: dict | None) 
         if "photic_hybrid" in out["cpu_s_per_spp"]:
             out["ratios"]["hybrid_over_cycles_cpu_s_per_spp"] = (out["cpu_s_per_spp"]["photic_hybrid"]
                                                                  / cycles["cpu_s_per_spp"])
+        full = cycles.get("full_bounces")
+        if full is not None:
+            out["cpu_s_per_spp"]["cycles_full_bounces"] = full["cpu_s_per_spp"]
+            if "photic_hybrid" in out["cpu_s_per_spp"]:
+                out["ratios"]["hybrid_over_cycles_full_bounces_cpu_s_per_spp"] = (
+                    out["cpu_s_per_spp"]["photic_hybrid"] / full["cpu_s_per_spp"])
     if "photic_hybrid" in out["cpu_s_per_spp"] and "photic_path" in out["cpu_s_per_spp"]:
         out["ratios"]["hybrid_over_path_cpu_s_per_spp"] = (out["cpu_s_per_spp"]["photic_hybrid"]
                                                            / out["cpu_s_per_spp"]["photic_path"])
@@ -834,6 +843,9 @@ def format_speed_summary(summary: dict) -> str:
             lines.append(f"  time to 5 % error, {scene}, {m}: " + ("not reached" if t is None else f"{t:.1f} s wall"))
     for k, v in summary["cpu_s_per_spp"].items():
         lines.append(f"  CPU-s per sample per pixel, stepped pool 256x256, {k}: {v:.3f}")
+    if "cycles" in summary["cpu_s_per_spp"]:
+        lines.append("  (cycles: its default light paths, at most 4 diffuse bounces; cycles_full_bounces: "
+                     "its limits raised to Photic's max_depth, the same light transport)")
     w = summary.get("wave_radiometers")
     if w:
         lines.append(f"  256 Ed radiometers, {w['samples']} samples each: waves {w['median']['waves']['wall_s']:.2f} s, "
@@ -869,6 +881,8 @@ def run_speed_bench(cases=SPEED_CASES, quick: bool = False, threads: int = 2, pl
         if bpy_available():
             say("Cycles on the pool view (a separate process)")
             cycles = run_cycles_pool(threads=threads)
+            say("Cycles with Photic's bounce limits")
+            cycles["full_bounces"] = run_cycles_pool(threads=threads, full_bounces=True)
         else:
             say("no bpy: Cycles is not measured")
     if cycles is not None and cycles.get("image_rgb") is not None and side_by_side:
