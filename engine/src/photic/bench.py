@@ -740,7 +740,7 @@ def run_cycles_pool(resolution=(256, 256), samples=(16, 64), threads: int = 2, w
     (``blender_addon/cycles_compare.py``): CPU seconds per sample (the marginal cost between
     the two sample counts) and the linear image at the larger one. ``full_bounces``: Cycles'
     bounce limits raised to the scene's max_depth (its defaults stop after 4 diffuse bounces,
-    which in the pool leaves out ~40 % of the light). None without ``bpy``."""
+    which in the pool leaves out about a tenth of the light). None without ``bpy``."""
     import json
     import subprocess
     import sys
