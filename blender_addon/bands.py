@@ -118,3 +118,23 @@ def bands_to_rgba(image: np.ndarray, bands, variance: bool = False) -> np.ndarra
         if not np.all(finite):
             out[:, :, :3][((~finite).astype(float) @ (w != 0)) > 0] = np.inf
     return out
+
+
+MID_GREY = 0.18
+EXPOSURE_LIMIT = 16.0  # stops
+
+
+def auto_exposure(rgb: np.ndarray) -> float | None:
+    """Stops of display exposure that show an image's average brightness as mid-grey: log2 of
+    0.18 over the image's key (the geometric mean of its luminance, Reinhard et al. 2002, over
+    the pixels with light; values below a millionth of the brightest count as that). None for a
+    black or non-finite image."""
+    rgb = np.asarray(rgb, float)[..., :3]
+    y = 0.2126 * rgb[..., 0] + 0.7152 * rgb[..., 1] + 0.0722 * rgb[..., 2]
+    y = y[np.isfinite(y) & (y > 0)]
+    if y.size == 0:
+        return None
+    y = np.maximum(y, 1e-6 * float(y.max()))
+    key = float(np.exp(np.mean(np.log(y))))
+    stops = math.log2(MID_GREY / key)
+    return float(np.clip(round(stops * 20.0) / 20.0, -EXPOSURE_LIMIT, EXPOSURE_LIMIT))

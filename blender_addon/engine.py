@@ -57,13 +57,26 @@ def compatible_panels():
     return [getattr(bpy.types, n) for n in wanted if hasattr(bpy.types, n)]
 
 
+@bpy.app.handlers.persistent
+def _auto_exposure_after_render(scene, *args):
+    """After a render job, on the main thread: the display exposure of Auto Exposure."""
+    try:
+        final_render.apply_auto_exposure(scene)
+    except Exception as exc:  # noqa: BLE001  (a handler must not break Blender)
+        print(f"Photic: auto exposure not set: {exc}")
+
+
 def register():
     for panel in compatible_panels():
         if hasattr(panel, "COMPAT_ENGINES"):
             panel.COMPAT_ENGINES.add(PhoticRenderEngine.bl_idname)
+    if _auto_exposure_after_render not in bpy.app.handlers.render_complete:
+        bpy.app.handlers.render_complete.append(_auto_exposure_after_render)
 
 
 def unregister():
     for panel in compatible_panels():
         if hasattr(panel, "COMPAT_ENGINES"):
             panel.COMPAT_ENGINES.discard(PhoticRenderEngine.bl_idname)
+    if _auto_exposure_after_render in bpy.app.handlers.render_complete:
+        bpy.app.handlers.render_complete.remove(_auto_exposure_after_render)

@@ -478,13 +478,19 @@ class _Exporter:
                                                  f"its -Z axis and must point downwards)")
         azimuth = round(math.degrees(math.atan2(towards[1], towards[0])), 4) % 360.0 + 0.0
         light = obj.data
-        strength = blender_float(light.energy)
-        if not (math.isfinite(strength) and strength >= 0):
-            raise ExportError(owner, "Strength (data.energy)",
-                              f"is {strength}, must be a finite irradiance >= 0 W m^-2")
-        colour = tuple(blender_float(c) for c in light.color)
-        irradiance = strength * bandmod.rgb_to_bands(colour, self.bands)
-        _finite_non_negative(owner, "Color (data.color)", irradiance, "sun irradiance")
+        # (the original ID's: editing a custom property does not always re-evaluate the lamp)
+        lp = getattr(getattr(light, "original", None) or light, "photic", None)
+        if lp is not None and lp.irradiance_bands.strip():
+            irradiance = per_band(owner, 0.0, lp.irradiance_bands, "Irradiance",
+                                  "data.photic.irradiance", self.bands, "sun irradiance")
+        else:
+            strength = blender_float(light.energy)
+            if not (math.isfinite(strength) and strength >= 0):
+                raise ExportError(owner, "Strength (data.energy)",
+                                  f"is {strength}, must be a finite irradiance >= 0 W m^-2")
+            colour = tuple(blender_float(c) for c in light.color)
+            irradiance = strength * bandmod.rgb_to_bands(colour, self.bands)
+            _finite_non_negative(owner, "Color (data.color)", irradiance, "sun irradiance")
         diameter = blender_float(math.degrees(light.angle))
         if not 0.0 < diameter <= 20.0:
             raise ExportError(owner, "Angle (data.angle)", f"is {diameter:.3g} degrees; "

@@ -42,6 +42,18 @@ LAST_RENDER: dict = {}
 #: .blend inputs of ``photic batch`` jobs: see ``batch.export_frames``).
 EXPORT_HOOK = None
 
+def apply_auto_exposure(scene) -> float | None:
+    """Set the scene's display exposure from the last render (its Auto Exposure option): on
+    the main thread, after the render job (a render must not edit scene data while it runs).
+    Returns the exposure set, or None."""
+    props = getattr(scene, "photic", None)
+    stops = LAST_RENDER.get("auto_exposure")
+    if props is None or not props.auto_exposure or stops is None or LAST_RENDER.get("scene") != scene.name:
+        return None
+    scene.view_settings.exposure = stops
+    return stops
+
+
 #: When set, called as PROGRESS_HOOK(fraction, text) with the render's progress and status
 #: (a background Blender shows neither): ``photic blend`` draws its progress bar with it.
 PROGRESS_HOOK = None
@@ -132,6 +144,7 @@ class FinalRender:
             traceback.print_exc()
             self.fail(f"internal error: {type(exc).__name__}: {exc} (details in the console)")
         self.summary["time_s"] = time.perf_counter() - t0
+        self.summary["scene"] = getattr(getattr(self.depsgraph, "scene_eval", None), "name", None)
         LAST_RENDER.clear()
         LAST_RENDER.update(self.summary)
         return self.summary
@@ -340,6 +353,9 @@ class FinalRender:
             image = final_image()
             if image is not None:
                 self._write(result, image, bands)
+                stops = bandmod.auto_exposure(bandmod.bands_to_rgba(image.mean, bands))
+                if stops is not None:
+                    self.summary["auto_exposure"] = stops
             engine.end_result(result)
 
     def _show(self, result, image, bands, t: float) -> None:

@@ -256,6 +256,11 @@ def import_scene(scene, bscene=None, collection=None) -> dict:
         light = bpy.data.lights.new("Sun", "SUN")
         colour, top = _rgb(sun.irradiance, bands)
         light.color, light.energy = colour, top
+        # A spectrum that Strength and Color cannot hold (other bands than RGB, or differing
+        # within a primary) goes into the per-band irradiance, exactly.
+        shown = top * bandmod.rgb_to_bands(colour, bands)
+        if not np.allclose(shown, sun.irradiance, rtol=1e-6, atol=0.0):
+            light.photic.irradiance_bands = _numbers(sun.irradiance)
         light.angle = math.radians(sun.angular_diameter_deg)
         obj = bpy.data.objects.new("Sun", light)
         obj.rotation_euler = (math.radians(sun.zenith_deg), 0.0, math.radians(sun.azimuth_deg + 90.0))

@@ -1,8 +1,10 @@
 """Operators: export the Photic scene description of the current view layer; import a scene
 file as Blender objects."""
 
+import math
+
 import bpy
-from bpy.props import StringProperty
+from bpy.props import FloatProperty, IntProperty, StringProperty
 
 from .engine_loader import engine_error, load_engine
 from . import natural_waters
@@ -228,8 +230,87 @@ def menu_export(self, context):
     self.layout.operator(PHOTIC_OT_export_scene.bl_idname, text="Photic Scene (.json)")
 
 
+class PHOTIC_OT_clear_sky_sun(bpy.types.Operator):
+    """Point the active sun lamp at the sun of a place and time and give it the irradiance of
+    a clear sky's direct beam in each band (photic.solar: approximate, within ~10 %); +Y is
+    north, +X east"""
+
+    bl_idname = "photic.clear_sky_sun"
+    bl_label = "Clear-Sky Sun at a Place and Time"
+    bl_options = {"REGISTER", "UNDO"}
+
+    latitude: FloatProperty(name="Latitude (\u00b0N)", default=43.3, min=-90.0, max=90.0,
+                            description="Degrees north (negative: south)")
+    longitude: FloatProperty(name="Longitude (\u00b0E)", default=5.4, min=-180.0, max=180.0,
+                             description="Degrees east (negative: west)")
+    year: IntProperty(name="Year", default=2026, min=1900, max=2100)
+    month: IntProperty(name="Month", default=6, min=1, max=12)
+    day: IntProperty(name="Day", default=21, min=1, max=31)
+    hour_utc: FloatProperty(name="Hour (UTC)", default=11.0, min=0.0, max=24.0,
+                            description="Time of day in hours, UTC")
+    aerosol_beta: FloatProperty(name="Turbidity \u03b2", default=0.05, min=0.0, max=1.0,
+                                description="Angstrom turbidity: aerosol optical depth at 1 um "
+                                            "(0.05 clear, 0.2 hazy; dimensionless)")
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.object
+        return obj is not None and obj.type == "LIGHT" and obj.data.type == "SUN"
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        import datetime
+
+        import numpy as np
+
+        from .bands import BandError, scene_bands
+        photic = load_engine()
+        if photic is None:
+            self.report({"ERROR"}, engine_error())
+            return {"CANCELLED"}
+        from photic import solar
+        try:
+            hours = min(self.hour_utc, 23.9999)
+            when = datetime.datetime(self.year, self.month, self.day, tzinfo=datetime.timezone.utc) \
+                + datetime.timedelta(hours=hours)
+        except ValueError as exc:
+            self.report({"ERROR"}, f"Clear-Sky Sun: the date is not valid ({exc})")
+            return {"CANCELLED"}
+        zenith, azimuth = solar.solar_position(self.latitude, self.longitude, when)
+        if zenith >= 89.0:
+            self.report({"ERROR"}, f"Clear-Sky Sun: the sun is {zenith - 90.0:.1f} degrees below "
+                                   f"the horizon (or too low) there and then")
+            return {"CANCELLED"}
+        try:
+            bands = scene_bands(context.scene.photic)
+        except BandError as exc:
+            self.report({"ERROR"}, f"Render > Bands ({exc.prop}): {exc.message}")
+            return {"CANCELLED"}
+        doy = when.timetuple().tm_yday
+        values = []
+        for _, centre, width in bands:  # averaged over the band
+            lam = np.linspace(max(280.0, centre - width / 2), min(4000.0, centre + width / 2), 9)
+            values.append(float(np.mean(solar.clear_sky_direct(lam, zenith, self.aerosol_beta,
+                                                                day_of_year=doy))))
+        obj = context.object
+        light = obj.data
+        obj.rotation_mode = "XYZ"
+        obj.rotation_euler = (math.radians(zenith), 0.0, math.radians(azimuth + 90.0))
+        light.photic.irradiance_bands = ", ".join(f"{v:.4g}" for v in values)
+        light.energy = max(values)
+        light.color = (1.0, 1.0, 1.0)
+        light.angle = math.radians(0.53)
+        self.report({"INFO"}, f"Sun at zenith {zenith:.1f} deg, azimuth {azimuth:.1f} deg (from +X "
+                              f"towards +Y); irradiance {', '.join(f'{v:.3g}' for v in values)} "
+                              f"W m^-2 nm^-1")
+        return {"FINISHED"}
+
+
 classes = (PHOTIC_OT_export_scene, PHOTIC_OT_read_volume_grids, PHOTIC_OT_grid_field_add,
-           PHOTIC_OT_grid_fields_from_source, PHOTIC_OT_grid_field_remove, PHOTIC_OT_import_scene)
+           PHOTIC_OT_grid_fields_from_source, PHOTIC_OT_grid_field_remove, PHOTIC_OT_import_scene,
+           PHOTIC_OT_clear_sky_sun)
 
 
 def register():

@@ -412,6 +412,24 @@ class PhoticMaterialProperties(bpy.types.PropertyGroup):
         del bpy.types.Material.photic
 
 
+class PhoticLightProperties(bpy.types.PropertyGroup):
+    """A sun lamp's irradiance per band, overriding its Strength and Color."""
+
+    irradiance_bands: StringProperty(
+        name="Irradiance per Band",
+        description="Sun irradiance normal to the sun (W m^-2 per unit of the band's spectrum, "
+                    "e.g. W m^-2 nm^-1), one per band in the scene's band order, separated by "
+                    "commas; when given, Strength and Color are not used")
+
+    @classmethod
+    def register(cls):
+        bpy.types.Light.photic = PointerProperty(type=cls, name="Photic")
+
+    @classmethod
+    def unregister(cls):
+        del bpy.types.Light.photic
+
+
 class PhoticWorldProperties(bpy.types.PropertyGroup):
     """The sky."""
 
@@ -525,6 +543,12 @@ class PhoticSceneProperties(bpy.types.PropertyGroup):
                                 description="Levels of adaptive subdivision of a surface "
                                             "triangle's beam where its rays disagree (each "
                                             "level halves the beam cell size)")
+    auto_exposure: BoolProperty(
+        name="Auto Exposure", default=True,
+        description="After a render (and in the viewport), set the scene's display exposure "
+                    "(Color Management > Exposure) so that the image's average brightness shows "
+                    "as mid-grey. Only the display changes: the passes, the EXR and the "
+                    "radiometer tables keep their radiometric values")
     write_tables: BoolProperty(name="Radiometer Tables", default=True,
                                description="Write radiometer values and standard errors as CSV "
                                            "and JSON next to the render output")
@@ -541,4 +565,4 @@ class PhoticSceneProperties(bpy.types.PropertyGroup):
 
 
 classes = (PhoticGridField, PhoticObjectProperties, PhoticMaterialProperties,
-           PhoticWorldProperties, PhoticSceneProperties)
+           PhoticLightProperties, PhoticWorldProperties, PhoticSceneProperties)

@@ -58,6 +58,7 @@ class PHOTIC_PT_render(PhoticPanel, bpy.types.Panel):
         sub = row.row()
         sub.active = p.use_target_error
         sub.prop(p, "target_error", text="")
+        layout.prop(p, "auto_exposure")
         col = layout.column(align=True)
         col.prop(p, "seed")
         col.prop(p, "threads")
@@ -322,6 +323,43 @@ class PHOTIC_PT_material(PhoticPanel, bpy.types.Panel):
                 layout.prop(mat, "diffuse_color", text="Color")
 
 
+def _band_order(context) -> str:
+    """The scene's bands in order, for per-band text fields."""
+    from .bands import BandError, scene_bands
+    try:
+        return ", ".join(b[0] for b in scene_bands(context.scene.photic)) + " nm"
+    except BandError as exc:
+        return f"(bands: {exc.message})"
+
+
+class PHOTIC_PT_light(PhoticPanel, bpy.types.Panel):
+    bl_label = "Photic Sun"
+    bl_context = "data"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and getattr(context, "light", None) is not None
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        light = context.light
+        if light.type != "SUN":
+            layout.label(text="Photic renders sun lamps only: this light is not used", icon="INFO")
+            return
+        p = light.photic
+        col = layout.column()
+        col.active = not p.irradiance_bands.strip()  # overridden by the per-band list
+        col.prop(light, "energy", text="Irradiance (W m\u207b\u00b2 nm\u207b\u00b9)")
+        col.prop(light, "color")
+        layout.prop(p, "irradiance_bands", text="Per Band")
+        row = layout.row()
+        row.alignment = "RIGHT"
+        row.label(text=f"band order: {_band_order(context)}")
+        layout.prop(light, "angle", text="Angular Diameter (\u00b0)")
+        layout.operator("photic.clear_sky_sun", icon="LIGHT_SUN")
+
+
 class PHOTIC_PT_world(PhoticPanel, bpy.types.Panel):
     bl_label = "Photic Sky"
     bl_context = "world"
@@ -349,4 +387,5 @@ class PHOTIC_PT_world(PhoticPanel, bpy.types.Panel):
 
 
 classes = (PHOTIC_PT_render, PHOTIC_PT_bands, PHOTIC_PT_beams, PHOTIC_PT_radiometer_results,
-           PHOTIC_PT_object, PHOTIC_PT_iop_variation, PHOTIC_PT_material, PHOTIC_PT_world)
+           PHOTIC_PT_object, PHOTIC_PT_iop_variation, PHOTIC_PT_material, PHOTIC_PT_light,
+           PHOTIC_PT_world)

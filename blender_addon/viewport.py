@@ -111,6 +111,11 @@ class ViewportRender:
             snap = renderer.snapshot("viewport")
             if snap is not None and snap.samples != self.texture_samples:
                 rgba = bandmod.bands_to_rgba(snap.mean, self.bands)[::-1]
+                scene = depsgraph.scene_eval
+                if scene.photic.auto_exposure:  # display only: the net exposure is the image's
+                    stops = bandmod.auto_exposure(rgba)
+                    if stops is not None:
+                        rgba[..., :3] *= 2.0 ** (stops - scene.view_settings.exposure)
                 buf = gpu.types.Buffer("FLOAT", rgba.size, np.ascontiguousarray(rgba).ravel())
                 self.texture = gpu.types.GPUTexture((width, height), format="RGBA16F", data=buf)
                 self.texture_samples = snap.samples

@@ -754,6 +754,11 @@ class FakeLayout:
     def label(self, **kw):
         pass
 
+    def operator(self, idname, **kw):
+        category, name = idname.split(".")
+        assert hasattr(getattr(bpy.ops, category), name), idname
+        self.shown.append(idname)
+
 
 @pytest.mark.parametrize("role", ["WATER_BODY", "WATER_SURFACE", "RADIOMETER", "RADIOMETER_ARRAY"])
 def test_panels_draw_every_property_they_name(empty, role):
@@ -772,11 +777,13 @@ def test_panels_draw_every_property_they_name(empty, role):
         obj.photic.iop_source, obj.photic.quantity = source, quantity
         if role == "WATER_SURFACE":
             obj.photic.surface_shape = shape
-        context = SimpleNamespace(engine="PHOTIC", scene=empty, object=obj, material=mat, world=world)
+        context = SimpleNamespace(engine="PHOTIC", scene=empty, object=obj, material=mat, world=world,
+                                  light=bpy.data.lights.new("L", "SUN"))
         for cls in ui.classes:
             if cls.poll(context):
                 cls.draw(SimpleNamespace(layout=FakeLayout(shown)), context)
     assert "role" in shown and "integrator" in shown and "sky_model" in shown
+    assert "irradiance_bands" in shown and "auto_exposure" in shown
 
 
 def test_unknown_variances_stay_infinite_in_the_display_passes():
@@ -789,3 +796,89 @@ def test_unknown_variances_stay_infinite_in_the_display_passes():
     out = bands_to_rgba(var, bands, variance=True)
     assert not np.any(np.isnan(out))
     assert np.all(np.isinf(out[0, 1, :3])) and np.all(np.isfinite(out[1, :, :3]))
+
+
+def test_sun_panel_per_band_irradiance_and_clear_sky_helper(empty):
+    """The Light tab shows a Photic Sun panel (irradiance with its unit, colour, a per-band
+    list that overrides both, the band order, the angular diameter, the Clear-Sky Sun helper);
+    the per-band list is what exports; the helper points the lamp at the sun of a place and time
+    with the clear sky's band-averaged direct irradiance (photic.solar)."""
+    from datetime import datetime, timedelta, timezone
+
+    from photic import solar
+    from photic_blender import ui
+    assert ui.PHOTIC_PT_light.bl_context == "data" and hasattr(bpy.types, "PHOTIC_PT_light")
+    add_camera()
+    obj = add_sun()
+    bpy.context.view_layer.objects.active = obj
+    light = obj.data
+    light.energy, light.color = 2.0, (1.0, 0.5, 0.25)
+    sun = export_current()[0].sun
+    assert np.allclose(sun.irradiance, [2.0, 1.0, 0.5], rtol=1e-6)  # R, G, B bands
+    light.photic.irradiance_bands = "1.3, 1.4, 1.5"
+    assert np.allclose(export_current()[0].sun.irradiance, [1.3, 1.4, 1.5])
+    light.photic.irradiance_bands = "1.3, x"
+    with pytest.raises(export.ExportError, match=r"Irradiance per Band .*item 2"):
+        export_current()
+    light.photic.irradiance_bands = ""
+    assert bpy.ops.photic.clear_sky_sun(latitude=43.3, longitude=5.4, year=2026, month=6, day=21,
+                                        hour_utc=11.0, aerosol_beta=0.05) == {"FINISHED"}
+    when = datetime(2026, 6, 21, tzinfo=timezone.utc) + timedelta(hours=11.0)
+    zenith, azimuth = solar.solar_position(43.3, 5.4, when)
+    sun = export_current()[0].sun
+    assert sun.zenith_deg == pytest.approx(zenith, abs=1e-3)
+    assert sun.azimuth_deg == pytest.approx(azimuth, abs=1e-3)
+    assert sun.angular_diameter_deg == pytest.approx(0.53, abs=1e-4)
+    expected = [np.mean(solar.clear_sky_direct(np.linspace(c - w / 2, c + w / 2, 9), zenith, 0.05,
+                                               day_of_year=172))
+                for c, w in ((620.0, 80.0), (550.0, 60.0), (460.0, 80.0))]
+    assert np.allclose(sun.irradiance, expected, rtol=1e-3)
+    # a sun spectrum that Strength and Color cannot hold (five bands) imports into the list
+    empty.photic.bands, empty.photic.custom_bands = "CUSTOM", "420, 470, 520, 570, 620"
+    with pytest.raises(export.ExportError, match="has 3 values but the scene has 5 bands"):
+        export_current()  # the helper's list was for the three RGB bands
+    light.photic.irradiance_bands = ""
+    sc = export_current()[0]
+    sc.sun.irradiance = np.array([1.1, 1.2, 1.3, 1.25, 1.15])
+    path = Path(bpy.app.tempdir) / "sun_bands.json"
+    photic.scene.save_scene(sc, path)
+    bpy.data.objects.remove(obj)
+    assert bpy.ops.photic.import_scene(filepath=str(path)) == {"FINISHED"}
+    suns = [o for o in bpy.data.objects if o.type == "LIGHT"]
+    assert len(suns) == 1 and suns[0].data.photic.irradiance_bands.strip()
+    assert np.allclose(export_current()[0].sun.irradiance, [1.1, 1.2, 1.3, 1.25, 1.15])
+
+
+def test_auto_exposure_sets_the_display_not_the_values(empty, tmp_path):
+    """Auto Exposure (on by default): after a render the scene's display exposure shows the
+    image's key (geometric-mean luminance) as mid-grey, whatever the sun's strength, and the
+    saved EXR holds the same radiometric values as with it off."""
+    import OpenEXR
+
+    from photic_blender.bands import auto_exposure
+    assert auto_exposure(np.full((4, 4, 3), 0.18)) == 0.0
+    assert auto_exposure(np.full((4, 4, 3), 0.045)) == 2.0
+    assert auto_exposure(np.zeros((4, 4, 3))) is None
+    assert empty.photic.auto_exposure
+    add_camera()
+    add_mesh("Ground", [(-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0)], [(0, 1, 2, 3)])
+    sun = add_sun()
+    empty.photic.samples = 2
+    empty.render.image_settings.file_format = "OPEN_EXR"
+    values = {}
+    for energy, auto in ((0.01, True), (100.0, True), (0.01, False)):
+        sun.data.energy = energy
+        empty.photic.auto_exposure = auto
+        empty.view_settings.exposure = 0.0
+        empty.render.filepath = str(tmp_path / f"e{energy}_{auto}_")
+        bpy.ops.render.render(write_still=True)
+        values[(energy, auto)] = empty.view_settings.exposure
+        exr = next(tmp_path.glob(f"e{energy}_{auto}_*.exr"))
+        with OpenEXR.File(str(exr)) as f:
+            ch = f.parts[0].channels
+            key = next(k for k in ch if "Combined" in k or k in ("RGBA", "R"))
+            values[("exr", energy, auto)] = np.asarray(ch[key].pixels, float)
+    assert values[(0.01, True)] > 5.0 and values[(100.0, True)] < -5.0
+    assert values[(0.01, True)] - values[(100.0, True)] == pytest.approx(math.log2(1e4), abs=0.2)
+    assert values[(0.01, False)] == 0.0
+    assert np.array_equal(values[("exr", 0.01, True)], values[("exr", 0.01, False)])
