@@ -26,15 +26,17 @@ try:
 except ImportError:  # a distribution Blender without numpy: use the engine's environment
     engine_loader.add_search_paths()
 
-from . import engine, natural_waters, operators, properties, ui, waves_preview  # noqa: E402
+from . import engine, natural_waters, operators, properties, radiometers, ui, waves_preview  # noqa: E402
 
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory(
-    properties.classes + operators.classes + (engine.PhoticRenderEngine,) + ui.classes)
+    properties.classes + operators.classes + radiometers.classes + (engine.PhoticRenderEngine,)
+    + ui.classes)
 
 
 def register():
     _register_classes()
     operators.register()
+    radiometers.register()
     engine.register()
     waves_preview.register()
     natural_waters.register()
@@ -44,5 +46,6 @@ def unregister():
     natural_waters.unregister()
     waves_preview.unregister()
     engine.unregister()
+    radiometers.unregister()
     operators.unregister()
     _unregister_classes()

@@ -61,14 +61,16 @@ def render_blend(path, frame: int | None = None, out_dir=None, samples: int | No
                  radiometer_samples: int | None = None, seed: int | None = None,
                  threads: int | None = None, resolution_percentage: int | None = None,
                  progress=None, target_error: float | None = None,
-                 noise_threshold: float | None = None) -> dict:
+                 noise_threshold: float | None = None, radiometers_only: bool = False) -> dict:
     """Render one frame of a .blend file with Photic.
 
     ``progress(fraction, text)``, when given, is called as the render goes on (a background
     Blender shows nothing). Returns the render summary (``final_render.LAST_RENDER``) with
     ``"image"``: the EXR path. ``target_error`` (a fraction, e.g. 0.01) turns on the scene's
     Target Error for the radiometers at that value, ``noise_threshold`` (a fraction) its Noise
-    Threshold for the pixels. Raises RuntimeError with the add-on's message when the render
+    Threshold for the pixels. ``radiometers_only`` (or a file without a camera) renders the
+    radiometers alone, as Render > Render Radiometers does: tables beside the output, no image
+    (``"image"`` is None). Raises RuntimeError with the add-on's message when the render
     failed.
     """
     path, scene = open_blend(path)
@@ -95,6 +97,13 @@ def render_blend(path, frame: int | None = None, out_dir=None, samples: int | No
     settings.exr_codec = "ZIP"
     scene.render.use_file_extension = True
     scene.render.filepath = str(out_dir / f"{path.stem}_####")
+    if radiometers_only or scene.camera is None:
+        from . import natural_waters
+        from .radiometers import render_radiometers
+        natural_waters.read_volumes(scene)
+        summary = render_radiometers(bpy.context.evaluated_depsgraph_get(), progress=progress)
+        summary["image"] = None
+        return summary
     # (Volume grids: read before the frame by natural_waters' render_pre handler)
     final_render.LAST_RENDER.clear()
     final_render.PROGRESS_HOOK = progress

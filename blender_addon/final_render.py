@@ -102,10 +102,54 @@ def radiometer_summary(result) -> list[dict]:
              "target_reached": getattr(r, "target_reached", None)} for r in result.radiometers]
 
 
-def table_stem(bscene) -> tuple[Path, str]:
-    """Directory and file stem of this frame's render output (tables go beside it)."""
-    path = Path(bscene.render.frame_path(frame=bscene.frame_current))
-    return path.parent, path.stem
+def table_stem(bscene, blend_path: str | None = None) -> tuple[Path, str]:
+    """Directory and file stem of this frame's radiometer tables: those of the frame's render
+    output (so a saved image and its tables share one stem, e.g. ``out/pool_0001.exr`` and
+    ``out/pool_0001_radiometers.csv``). When the output is Blender's default, the temporary
+    folder, they go beside the .blend file as ``<file>_<frame>`` instead (an unsaved file:
+    the temporary folder, ``untitled_<frame>``)."""
+    import bpy
+
+    frame = bscene.frame_current
+    path = Path(bscene.render.frame_path(frame=frame))
+    temp = Path(tempfile.gettempdir()).resolve()
+    raw = bscene.render.filepath.strip()
+    if raw and path.parent.resolve() != temp:
+        return path.parent, path.stem
+    blend = blend_path if blend_path is not None else bpy.data.filepath
+    if blend:
+        return Path(blend).parent, f"{Path(blend).stem}_{frame:04d}"
+    return temp, f"untitled_{frame:04d}"
+
+
+def write_radiometer_results(photic, final, bscene, report) -> list[str]:
+    """The radiometers of a finished (or cancelled) render: kept for the Radiometer Results
+    panel, and written as tables beside the frame's output (``table_stem``) unless the scene
+    turns them off. Radiometers that took no samples (a render cancelled before them) are left
+    out, and nothing is written when none took any, so that a cancelled render never leaves
+    tables of 0 +- 0 that look like results; a partial one says so in its tables.
+    ``report(level, text)`` takes warnings. Returns the paths written."""
+    done = [r for r in final.radiometers if r.samples > 0]
+    if not done:
+        if final.radiometers or final.cancelled:
+            report("WARNING", "no radiometer results: the render was cancelled before any "
+                              "radiometer took a sample")
+        return []
+    final.radiometers = done
+    LAST_RADIOMETERS[bscene.name] = {"bands": [b.name for b in final.bands],
+                                     "rows": radiometer_summary(final),
+                                     "cancelled": final.cancelled}
+    if not bscene.photic.write_tables:
+        return []
+    out_dir, stem = table_stem(bscene)
+    try:
+        paths = photic.output.write_radiometer_tables(out_dir, final, f"{stem}")
+    except OSError as exc:
+        report("WARNING", f"radiometer tables not written to {out_dir}: {exc}")
+        return []
+    derived = photic.output.write_derived_table(Path(out_dir) / f"{stem}_derived.csv", final)
+    print(f"Photic: radiometer tables {paths[0]} and {paths[1]}")
+    return [str(p) for p in paths] + ([str(derived)] if derived else [])
 
 
 class FinalRender:
@@ -391,19 +435,7 @@ class FinalRender:
         self.stats(text)
 
     def _radiometers(self, photic, final, bscene) -> None:
-        if not final.radiometers:
+        if not final.radiometers and not final.cancelled:
             return
-        LAST_RADIOMETERS[bscene.name] = {"bands": [b.name for b in final.bands],
-                                         "rows": radiometer_summary(final),
-                                         "cancelled": final.cancelled}
-        if not bscene.photic.write_tables:
-            return
-        out_dir, stem = table_stem(bscene)
-        try:
-            paths = photic.output.write_radiometer_tables(out_dir, final, f"{stem}")
-        except OSError as exc:
-            self.engine.report({"WARNING"}, f"radiometer tables not written to {out_dir}: {exc}")
-            return
-        derived = photic.output.write_derived_table(Path(out_dir) / f"{stem}_derived.csv", final)
-        self.summary["tables"] = [str(p) for p in paths] + ([str(derived)] if derived else [])
-        print(f"Photic: radiometer tables {paths[0]} and {paths[1]}")
+        self.summary["tables"] = write_radiometer_results(
+            photic, final, bscene, lambda level, text: self.engine.report({level}, text))

@@ -107,9 +107,10 @@ class PHOTIC_PT_radiometer_results(PhoticPanel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
+        layout.operator("photic.render_radiometers", icon="LIGHT_SUN")
         last = final_render.LAST_RADIOMETERS.get(context.scene.name)
         if not last:
-            layout.label(text="No radiometer results yet (render with F12)")
+            layout.label(text="No radiometer results yet (F12, or Render Radiometers)")
             return
         if last["cancelled"]:
             layout.label(text="Render was cancelled: partial results", icon="INFO")

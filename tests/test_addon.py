@@ -882,3 +882,73 @@ def test_auto_exposure_sets_the_display_not_the_values(empty, tmp_path):
     assert values[(0.01, True)] - values[(100.0, True)] == pytest.approx(math.log2(1e4), abs=0.2)
     assert values[(0.01, False)] == 0.0
     assert np.array_equal(values[("exr", 0.01, True)], values[("exr", 0.01, False)])
+
+
+def add_radiometer(name, location, quantity="Ed"):
+    obj = bpy.data.objects.new(name, None)
+    obj.location = location
+    obj.photic.role, obj.photic.quantity = "RADIOMETER", quantity
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def radiometer_only_file(tmp_path, empty):
+    """A sea 5 m deep under a sun, two Ed radiometers, no camera, saved as a .blend."""
+    add_sea(depth=5.0)
+    add_sun()
+    add_radiometer("Ed1", (0.0, 0.0, -1.0))
+    add_radiometer("Ed3", (0.0, 0.0, -3.0))
+    empty.photic.radiometer_samples = 4096
+    path = tmp_path / "rads.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return path
+
+
+def test_render_radiometers_without_a_camera(empty, tmp_path):
+    """Render > Render Radiometers on a scene without a camera (F12 refuses it): the engine's
+    numbers for the same scene, tables beside the .blend as <file>_<frame>_radiometers (the
+    output path being Blender's temporary folder), the results panel filled; with an output
+    path, beside the image's stem; the headless equivalents (batch, photic blend)."""
+    from photic.cli import main
+    from photic_blender.final_render import LAST_RADIOMETERS, table_stem
+    path = radiometer_only_file(tmp_path, empty)
+    frame = empty.frame_current
+    assert empty.camera is None
+    assert bpy.ops.photic.render_radiometers() == {"FINISHED"}
+    csv = tmp_path / f"rads_{frame:04d}_radiometers.csv"
+    assert csv.exists(), list(tmp_path.iterdir())
+    rows = LAST_RADIOMETERS[empty.name]["rows"]
+    direct = Renderer(export_current()[0]).run()
+    assert [r["value"] for r in rows] == [r.mean[0].tolist() for r in direct.radiometers]
+    empty.render.filepath = "//out/run_####"
+    assert table_stem(empty) == (tmp_path / "out", f"run_{frame:04d}")
+    summary = render_blend(path, out_dir=tmp_path / "b", radiometer_samples=2048)
+    assert summary["image"] is None and summary["radiometers"] == 2
+    assert Path(summary["tables"][0]).name == f"rads_{frame:04d}_radiometers.csv"
+    assert main(["blend", str(path), "--out", str(tmp_path / "c"), "--radiometer-samples", "1024",
+                 "--quiet"]) == 0
+    assert (tmp_path / "c" / f"rads_{frame:04d}_radiometers.json").exists()
+
+
+def test_a_cancelled_render_writes_no_empty_tables(empty, tmp_path):
+    """Cancelled before any radiometer took a sample: no tables (they would read 0 +- 0), a
+    warning; the engine leaves such radiometers out of its result; a partial result's CSV
+    says CANCELLED."""
+    from types import SimpleNamespace
+
+    from photic_blender.final_render import write_radiometer_results
+    radiometer_only_file(tmp_path, empty)
+    scene = export_current()[0]
+    scene.cameras = []
+    r = Renderer(scene, radiometer_samples=1 << 20)
+    r.cancel()
+    res = r.run()
+    assert res.cancelled and res.radiometers == []
+    messages = []
+    assert write_radiometer_results(photic, res, empty, lambda lvl, t: messages.append(t)) == []
+    assert messages and "cancelled before any radiometer" in messages[0]
+    done = Renderer(scene, radiometer_samples=1024).run()
+    done.cancelled = True
+    empty.render.filepath = str(tmp_path / "part_####")
+    paths = write_radiometer_results(photic, done, empty, lambda lvl, t: None)
+    assert Path(paths[0]).read_text().startswith("# CANCELLED")

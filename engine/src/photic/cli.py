@@ -316,14 +316,16 @@ def cmd_blend(args) -> int:
                                          radiometer_samples=args.radiometer_samples,
                                          seed=args.seed, threads=args.threads, progress=progress,
                                          target_error=args.target_error,
-                                         noise_threshold=args.noise_threshold)
+                                         noise_threshold=args.noise_threshold,
+                                         radiometers_only=args.radiometers_only)
         finally:
             if bar is not None:
                 bar.close()
     except (FileNotFoundError, RuntimeError) as exc:
         print(f"photic blend: {exc}", file=sys.stderr)
         return 2
-    print(f"image: {summary['image']}")
+    if summary.get("image"):
+        print(f"image: {summary['image']}")
     for t in summary.get("tables", []):
         print(f"radiometer table: {t}")
     st = summary.get("stats") or {}
@@ -491,6 +493,9 @@ def build_parser() -> argparse.ArgumentParser:
                          "(default: the file's Target Error)")
     bl.add_argument("--noise-threshold", type=relative_error_arg, default=None, metavar="REL",
                     help="turn on the file's Noise Threshold (adaptive sampling) at REL, e.g. 2%%")
+    bl.add_argument("--radiometers-only", action="store_true",
+                    help="render the file's radiometers alone (no image), as Render > Render "
+                         "Radiometers does; a file without a camera does so anyway")
     bl.add_argument("--seed", type=int, default=None, help="random seed (default: the file's)")
     bl.add_argument("--threads", type=int, default=None, help="threads, 0 = all cores (default: the file's)")
     bl.add_argument("--quiet", action="store_true", help="no progress bar")

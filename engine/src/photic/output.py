@@ -120,6 +120,9 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
               *(f"value_{c}" for c in COMPONENTS), *(f"stderr_{c}" for c in COMPONENTS),
               "samples", "units"]
     with open(csv_path, "w", newline="") as f:
+        if result.cancelled:
+            f.write("# CANCELLED: a partial result (the passes finished before the render was "
+                    "stopped; see samples)\n")
         f.write(f"# photic {__version__}; scene {result.scene_name}; seed {result.stats.get('seed')}; "
                 f"integrator {result.stats.get('integrator')}; "
                 f"forward cone {result.stats.get('forward_cone_deg')} deg; "

@@ -671,6 +671,8 @@ class Renderer:
             if not rad_rounds[ri]:
                 break
             res = radiometer_result(r, media[ri] or "air", [rad_rounds[ri][k] for k in sorted(rad_rounds[ri])])
+            if res.samples == 0:  # cancelled before its first pass ended: no result, not 0 +- 0
+                break
             flag_exact_mode_below_waves(res, scene, hybrid, self.forward_cone_deg, media_index[ri])
             if targets[ri] is not None:
                 res.target_error = targets[ri]
