@@ -271,6 +271,9 @@ class FinalRender:
         final = holder["result"]
         self.summary["samples"] = final.images[camera.name].samples if camera else 0
         self.summary["stats"] = final.stats
+        self.summary["warnings"] = list(final.warnings)
+        for w in final.warnings:
+            engine.report({"WARNING"}, f"Photic: {w}")
         self._radiometers(photic, final, bscene)
         self.progress(1.0)
         img = final.images.get(camera.name) if camera else None

@@ -94,6 +94,9 @@ class RadiometerRun:
             return self.summary
         self.summary["cancelled"] = bool(final.cancelled)
         self.summary["stats"] = final.stats
+        self.summary["warnings"] = list(final.warnings)
+        for w in final.warnings:
+            report("WARNING", f"Photic: {w}")
         self.summary["time_s"] = time.perf_counter() - self.t0
         self.summary["tables"] = final_render.write_radiometer_results(self.photic, final, self.bscene, report)
         self.summary["radiometers"] = len(final.radiometers)

@@ -94,3 +94,82 @@ def test_cancel_keeps_only_completed_passes():
     assert res.cancelled
     assert res.radiometer("Eo").samples == 2 * 65536
     assert np.isfinite(res.radiometer("Eo").mean).all()
+
+
+def _box(lo, hi):
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from geometry import box
+    return box(lo, hi)
+
+
+def test_silent_problems_become_warnings(capsys, tmp_path):
+    """A radiometer inside an opaque object or below the sea floor, a camera inside an object,
+    a sun without light: the render goes on, but its result and the command line say so
+    (naming the sensor), rather than print 0 +- 0 as if measured."""
+    from photic.cli import main
+    from photic.scene import save_scene
+    v, t = _box((-1, -1, -3), (1, 1, -2))
+    d = {"photic_scene": 1, "name": "warn",
+         "materials": {"grey": {"type": "lambertian", "reflectance": [0.5]}},
+         "meshes": [{"name": "rock", "material": "grey", "vertices": v, "triangles": t}],
+         "water": [{"name": "sea", "type": "ocean", "surface": {"kind": "flat", "z": 0.0},
+                    "bottom": {"depth": 5.0, "material": "grey"},
+                    "iops": {"absorption": [0.1], "b": [0.1], "phase": {"type": "isotropic"}}}],
+         "sun": {"zenith_deg": 30.0, "azimuth_deg": 0.0, "irradiance": [0.0]},
+         "sky": {"type": "uniform", "radiance": [1.0]},
+         "radiometers": [{"name": "in_rock", "quantity": "Ed", "position": [0, 0, -2.5]},
+                         {"name": "under_floor", "quantity": "Ed", "position": [3, 0, -6]},
+                         {"name": "fine", "quantity": "Ed", "position": [3, 0, -1]}],
+         "cameras": [{"name": "buried", "type": "perspective", "position": [0.2, 0, -2.6],
+                      "direction": [1, 0, 0], "up": [0, 0, 1], "fov_deg": 40, "resolution": [4, 4]}],
+         "settings": {"seed": 1, "samples": 1, "radiometer_samples": 1024}}
+    res = render(Scene.from_dict(d))
+    text = " | ".join(res.warnings)
+    for what in ("radiometer 'in_rock'", "radiometer 'under_floor'", "camera 'buried'", "sun:"):
+        assert what in text, (what, text)
+    assert "'fine'" not in text
+    path = tmp_path / "warn.json"
+    save_scene(Scene.from_dict(d), path)
+    assert main(["render", str(path), "--out", str(tmp_path), "--quiet"]) == 0
+    assert "warning: radiometer 'in_rock'" in capsys.readouterr().err
+
+
+def test_overlapping_water_bodies_are_refused():
+    """Two water meshes that overlap: the medium of the overlap would depend on their order in
+    the list (Ed 1.094 or 0.182 in the issue's case): refused, naming both; bodies that only
+    touch pass."""
+    from photic.scene import SceneError
+
+    def tank(name, lo, hi):
+        v, t = _box(lo, hi)
+        return {"name": name, "type": "mesh", "vertices": v, "triangles": t,
+                "iops": {"absorption": [0.1], "b": [0.0], "phase": {"type": "isotropic"}}}
+
+    def sc(*tanks):
+        return {"photic_scene": 1, "name": "tanks", "water": list(tanks),
+                "radiometers": [{"name": "r", "quantity": "Ed", "position": [0, 0, 5]}]}
+    with pytest.raises(SceneError, match=r"water 'B'.*overlaps water 'A'"):
+        Scene.from_dict(sc(tank("A", (-1, -1, -2), (1, 1, 0)), tank("B", (0, 0, -1), (2, 2, 1))))
+    with pytest.raises(SceneError, match="overlaps"):  # one inside the other
+        Scene.from_dict(sc(tank("A", (-2, -2, -2), (2, 2, 0)), tank("B", (-1, -1, -1.5), (1, 1, -0.5))))
+    Scene.from_dict(sc(tank("A", (-1, -1, -2), (1, 1, 0)), tank("B", (1, -1, -2), (3, 1, 0))))
+
+
+def test_messages_name_the_real_cause():
+    """Two boxes sharing an edge are not 'open' but touch along it; a body of zero height is
+    flat, not inside out."""
+    import trimesh
+
+    from photic.scene import SceneError, TriangleMesh, check_closed_mesh
+    a, b = trimesh.creation.box(extents=(1, 1, 1)), trimesh.creation.box(extents=(1, 1, 1))
+    b.apply_translation((1, 1, 0))
+    both = trimesh.util.concatenate([a, b])
+    with pytest.raises(SceneError, match="more than two triangles"):
+        check_closed_mesh("water 'W'", TriangleMesh(both.vertices, both.faces))
+    # a closed "pillow" of zero height: top and bottom faces on one plane
+    v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    f = np.array([[0, 1, 2], [0, 2, 3], [1, 0, 3], [1, 3, 2]])
+    with pytest.raises(SceneError, match="encloses no volume"):
+        check_closed_mesh("water 'F'", TriangleMesh(v, f))

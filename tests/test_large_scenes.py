@@ -39,8 +39,12 @@ def _outcome(mesh: S.TriangleMesh):
     except S.SceneError as exc:
         if "not closed" in exc.message:
             return "open", int(re.search(r": (\d+) edge", exc.message).group(1))
+        if "not a single closed surface" in exc.message:  # no open edge, parts touching
+            return "open", 0
         if "inconsistent" in exc.message:
             return "winding", None
+        if "encloses no volume" in exc.message:  # flat: trimesh says inwards (volume 0)
+            return "inwards", None
         assert "inwards" in exc.message, exc.message
         return "inwards", None
     return "ok", None

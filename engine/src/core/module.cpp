@@ -407,6 +407,8 @@ PYBIND11_MODULE(_core, m) {
         })
         .def("commit", [](Scene& s) { py::gil_scoped_release nogil; s.commit(); })
         .def("medium_at", [](const Scene& s, std::array<double, 3> p) { return s.medium_at(to_vec(p)); })
+        .def("inside_opaque", [](const Scene& s, std::array<double, 3> p) { return s.inside_opaque(to_vec(p)); },
+             "Whether p lies inside a closed opaque object (most of six rays meet one from behind).")
         .def("grid_integral", [](const Scene& s, int water, std::array<double, 3> p0, std::array<double, 3> p1) {
             const VoxelGrid& g = grid_of(s, water);
             Vec3 a = to_vec(p0), b = to_vec(p1);

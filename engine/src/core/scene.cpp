@@ -335,6 +335,18 @@ bool Scene::occluded_segment(const Vec3& o, const Vec3& d, double tmax) const {
     return h.valid;
 }
 
+bool Scene::inside_opaque(const Vec3& p) const {
+    const Vec3 dirs[6] = {normalize(Vec3(1, 0.0123, 0.0071)), normalize(Vec3(-1, 0.0089, -0.0061)),
+                          normalize(Vec3(0.0113, 1, 0.0057)), normalize(Vec3(-0.0097, -1, 0.0043)),
+                          normalize(Vec3(0.0071, 0.0031, 1)), normalize(Vec3(-0.0053, 0.0083, -1))};
+    int behind = 0;
+    for (const Vec3& d : dirs) {
+        Hit h = intersect(p, d);
+        if (h.valid && h.kind == SurfaceKind::kOpaque && h.id >= 0 && dot(h.n, d) > 0.0) ++behind;
+    }
+    return behind >= 4;
+}
+
 int Scene::medium_at(const Vec3& p) const {
     // Cast a slightly tilted ray upwards; the first water boundary it meets tells whether p
     // is inside (leaving through the boundary) or outside. Opaque surfaces are passed through.

@@ -427,6 +427,9 @@ public:
     // false at once when the segment misses the meshes' bounding box.
     bool meshes_block(const Vec3& o, const Vec3& d, double tnear, double tfar) const;
     int medium_at(const Vec3& p) const;
+    // Whether p lies inside a closed opaque object: most of six rays from it first meet an
+    // opaque surface from behind (a sensor there sees nothing).
+    bool inside_opaque(const Vec3& p) const;
     double offset_for(const Vec3& p) const { return eps_ + 4e-6 * max_abs(p); }
 
     // --- light ------------------------------------------------------------------

@@ -151,6 +151,8 @@ def cmd_render(args) -> int:
     result = renderer.run(progress)
     if bar is not None:
         bar.close()
+    for w in result.warnings:
+        print(f"photic: warning: {w}", file=sys.stderr)
     written = write_outputs(args.out, result)
     st = result.stats
     integ = st.get("integrator", "path")

@@ -18,7 +18,7 @@ import numpy as np
 from .compile import band_groups, compile_scene
 from .estimates import (CameraSums, RadiometerSums, bin_counts, combine_round_sums,
                         image_variance, mean_stderr)
-from .scene import IOPGrid, IOPProfile, Scene, SceneError
+from .scene import IOPGrid, IOPProfile, Scene, SceneError, scene_warnings
 
 RADIOMETER_PASS = 1 << 16  # samples per radiometer pass (a multiple of the core's chunk)
 PAIRED_PASS = 1 << 12      # at most this many per pass in paired strata (more pairs, finer strata)
@@ -88,6 +88,9 @@ class RenderResult:
     radiometers: list[RadiometerResult] = field(default_factory=list)
     stats: dict = field(default_factory=dict)
     cancelled: bool = False
+    # Problems that did not stop the render but make some of its numbers useless (a sensor
+    # inside an opaque object or below the sea floor, a sun without light; scene_warnings).
+    warnings: list = field(default_factory=list)
 
     def radiometer(self, name: str) -> RadiometerResult:
         for r in self.radiometers:
@@ -283,6 +286,21 @@ def build_pass_beams(core, scene: Scene, seed: int, key: tuple, i: int, n: int, 
         core.build_beams(direction, threads, (f1, f2))
     else:
         core.build_beams(direction, threads)
+
+
+def sensor_warnings(core, scene: Scene) -> list[str]:
+    """Cameras and radiometers that stand inside a closed opaque object: they see nothing."""
+    out = []
+    for c in scene.cameras:
+        start = np.asarray(c.position, float) + np.asarray(c.direction, float) * float(c.clip_start)
+        if core.inside_opaque(tuple(map(float, start))):
+            out.append(f"camera '{c.name}': it is inside an opaque object, which hides everything "
+                       f"(move it out or raise its clip start)")
+    for r in scene.all_radiometers():
+        if core.inside_opaque(tuple(map(float, r.position))):
+            out.append(f"radiometer '{r.name}': it is inside an opaque object: no light reaches it, "
+                       f"it reads 0")
+    return out
 
 
 def image_result(name: str, sums: CameraSums, n: int) -> ImageResult:
@@ -548,6 +566,8 @@ class Renderer:
             self._core = core
             if self._cancel.is_set():
                 core.cancel()
+            if gi == 0:
+                result.warnings = scene_warnings(scene) + sensor_warnings(core, scene)
             for ri in range(len(radiometers)):
                 m = core.radiometer_medium(ri)
                 media[ri] = "air" if m < 0 else scene.water[m].name

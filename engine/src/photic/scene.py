@@ -847,6 +847,68 @@ def _validate_scene(s: Scene) -> None:
     if not s.cameras and not seen:
         raise SceneError("scene", "cameras", "missing sensor: the scene needs at least one "
                                              "camera or radiometer")
+    _check_water_overlap(s)
+
+
+_OVERLAP_SAMPLE = 2000  # vertices of a water mesh tested against each other one
+
+
+def _check_water_overlap(s: Scene) -> None:
+    """Water meshes must not overlap (a point lies in one water body at most; the medium of
+    the overlap would depend on the order of the list). A body whose boxes meet another's is
+    tested by its vertices, moved a millionth of its size towards its own centre (so that bodies
+    that only touch pass), being inside the other (ray parity, trimesh)."""
+    meshes = [(i, w) for i, w in enumerate(s.water) if w.type == "mesh" and w.mesh is not None]
+    if len(meshes) < 2:
+        return
+    boxes = {i: (np.asarray(w.mesh.vertices).min(0), np.asarray(w.mesh.vertices).max(0)) for i, w in meshes}
+    built: dict = {}
+
+    def solid(i, w):
+        if i not in built:
+            import trimesh
+            built[i] = trimesh.Trimesh(np.asarray(w.mesh.vertices, float), np.asarray(w.mesh.triangles),
+                                       process=False)
+        return built[i]
+
+    for a, wa in meshes:
+        for b, wb in meshes:
+            if a == b:
+                continue
+            (alo, ahi), (blo, bhi) = boxes[a], boxes[b]
+            if np.any(alo > bhi) or np.any(blo > ahi):
+                continue
+            v = np.asarray(wa.mesh.vertices, float)
+            if len(v) > _OVERLAP_SAMPLE:
+                v = v[np.linspace(0, len(v) - 1, _OVERLAP_SAMPLE).astype(np.int64)]
+            centre = 0.5 * (alo + ahi)
+            v = v + (centre - v) * 1e-6
+            inside = solid(b, wb).contains(v)
+            if np.any(inside):
+                raise SceneError(_label("water", wb.name, b), "vertices",
+                                 f"overlaps water '{wa.name}' ({int(np.count_nonzero(inside))} of its "
+                                 f"{len(v)} tested vertices lie inside it): a point can be in one "
+                                 f"water body only; separate them, or join them into one body")
+
+
+def scene_warnings(s: Scene) -> list[str]:
+    """Problems that do not stop a render but make its numbers useless where the user may not
+    expect it (the renderer adds those it needs geometry for: sensors inside opaque objects)."""
+    out = []
+    if s.sun is not None and not np.any(np.asarray(s.sun.irradiance, float) > 0):
+        out.append("sun: its irradiance is 0 in every band: it adds no light")
+    ocean = next((w for w in s.water if w.type == "ocean"), None)
+    if ocean is not None and ocean.bottom_depth is not None:
+        floor = float(ocean.surface.z) - float(ocean.bottom_depth)
+        for r in s.all_radiometers():
+            if float(r.position[2]) < floor:
+                out.append(f"radiometer '{r.name}': position z = {float(r.position[2]):g} m is below "
+                           f"the sea floor (z = {floor:g} m): no light reaches it, it reads 0")
+        for c in s.cameras:
+            if float(c.position[2]) < floor:
+                out.append(f"camera '{c.name}': position z = {float(c.position[2]):g} m is below the "
+                           f"sea floor (z = {floor:g} m): it sees nothing")
+    return out
 
 
 def _validate_band(label: str, band: Band) -> None:
@@ -974,9 +1036,16 @@ def _check_closed(label: str, mesh: TriangleMesh) -> None:
         np.all(first[1:] != second[:-1]))
     if not closed:
         _, counts = np.unique(edge, return_counts=True)
+        open_edges, shared = int(np.count_nonzero(counts == 1)), int(np.count_nonzero(counts > 2))
+        if open_edges == 0 and shared > 0:  # closed, but parts touch along edges
+            raise SceneError(label, "triangles", f"water mesh is not a single closed surface: "
+                                                 f"{shared} edge(s) belong to more than two "
+                                                 f"triangles (parts touching along an edge, e.g. "
+                                                 f"two boxes sharing one: join them into one "
+                                                 f"body or move them apart)")
         raise SceneError(label, "triangles", f"water mesh is not closed (watertight): "
-                                             f"{int(np.count_nonzero(counts == 1))} edge(s) "
-                                             f"belong to only one triangle")
+                                             f"{open_edges} edge(s) belong to only one triangle"
+                                             + (f" and {shared} to more than two" if shared else ""))
     del edge, first, second
     # Opposite directions: flags 0 then 1 in each pair (an edge from a vertex to itself, in
     # a triangle whose corners were joined, counts as consistent, as in trimesh).
@@ -996,6 +1065,13 @@ def _check_closed(label: str, mesh: TriangleMesh) -> None:
         cx = (p1[:, 1] - p0[:, 1]) * (p2[:, 2] - p0[:, 2]) - (p1[:, 2] - p0[:, 2]) * (p2[:, 1] - p0[:, 1])
         volume += float(np.dot(cx, p0[:, 0] + p1[:, 0] + p2[:, 0]))
     volume /= 6.0
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    size = float(np.max(hi - lo))
+    if abs(volume) <= 1e-9 * max(size, 1e-300) ** 3:  # flat: no height, width or depth
+        thin = "xyz"[int(np.argmin(hi - lo))]
+        raise SceneError(label, "triangles", f"water mesh encloses no volume ({volume:.3g} m^3): "
+                                             f"it is flat (extent {float(np.min(hi - lo)):.3g} m "
+                                             f"in {thin}); a water body needs a height")
     if not volume > 0:
         raise SceneError(label, "triangles", f"water mesh normals point inwards (enclosed volume "
                                              f"{volume:.6g} m^3 <= 0); reverse the winding "
