@@ -81,13 +81,17 @@ def image_passes(image, bands) -> dict:
     return out
 
 
-def median_relative_error(image) -> float:
-    """Median over lit pixels and bands of standard error / mean."""
-    mean, var = image.mean, image.variance
-    lit = mean > 0
-    if not np.any(lit):
-        return float("nan")
-    return float(np.median(np.sqrt(var[lit]) / mean[lit]))
+def image_relative_error(image) -> float | None:
+    """The image's noise as the eye meets it: the RMS over pixels and bands of each pixel's
+    standard error, over the image's mean (what `photic bench --error` measures against a
+    reference as RMS(x - ref) / mean(ref)). A median over pixels said 0 % for the stepped pool
+    whose pool pixels had 16 % (its sky pixels, many and smooth, made the median). None while it
+    cannot be estimated (fewer than 2 samples per pixel) or for a black image."""
+    mean, var = np.asarray(image.mean, float), np.asarray(image.variance, float)
+    m = float(np.mean(mean))
+    if not np.all(np.isfinite(var)) or not m > 0:
+        return None
+    return float(np.sqrt(np.mean(var)) / m)
 
 
 def radiometer_summary(result) -> list[dict]:
@@ -429,9 +433,10 @@ class FinalRender:
         rays = renderer.counters["segments"] / elapsed if elapsed > 0 else 0.0
         text = f"{rays / 1e6:.2f} M rays/s"
         if snap is not None:
-            err = median_relative_error(snap)
-            text = f"sample {snap.samples}/{renderer.samples} | {text} | error {100 * err:.1f}% " \
-                   f"(median pixel, 1 sigma)"
+            err = image_relative_error(snap)
+            noise = ("error: 2 samples per pixel needed" if err is None
+                     else f"error {100 * err:.1f}% (image RMS, 1 sigma)")
+            text = f"sample {snap.samples}/{renderer.samples} | {text} | {noise}"
         remaining = elapsed * (1 - renderer.progress) / renderer.progress if renderer.progress > 0 else None
         if remaining is not None:
             text += f" | {remaining:.0f} s left"
