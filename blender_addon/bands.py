@@ -138,3 +138,18 @@ def auto_exposure(rgb: np.ndarray) -> float | None:
     key = float(np.exp(np.mean(np.log(y))))
     stops = math.log2(MID_GREY / key)
     return float(np.clip(round(stops * 20.0) / 20.0, -EXPOSURE_LIMIT, EXPOSURE_LIMIT))
+
+
+def total_to_rows(total: np.ndarray, n, bands) -> np.ndarray:
+    """A render view's Combined pixels from a camera's running sums of the total (H, W, bands)
+    and samples per pixel (a number or (H, W)): display RGB with alpha 1, float32, bottom row
+    first, flat (what ``set_rect`` takes). The band-to-RGB step is done on the sums before the
+    division (three channels to divide instead of every band)."""
+    h, w = total.shape[:2]
+    m = _display_matrix(bands)
+    rgb = total[:, :, display_indices(bands)] if m is None else total @ m
+    nn = np.maximum(np.asarray(n, float), 1.0)
+    rgb = rgb / (nn[:, :, None] if nn.ndim else nn)
+    out = np.ones((h, w, 4), np.float32)
+    out[:, :, :3] = rgb[::-1]
+    return out.reshape(h * w, 4)

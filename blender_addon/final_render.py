@@ -30,6 +30,7 @@ COMPONENT_PASSES = (("Photic Beam Surface", "beam_surface"),
 VARIANCE_PASS = "Photic Variance"
 PASS_NAMES = tuple(p for p, _ in COMPONENT_PASSES) + (VARIANCE_PASS,)
 UPDATE_INTERVAL_S = 0.5
+STREAM = True  # False: the render view gets the image at the end only (to measure streaming's cost)
 POLL_S = 0.02
 DASK_CONNECT_TIMEOUT_S = 10.0  # how long a render waits for its Dask scheduler to answer
 
@@ -64,11 +65,117 @@ def set_rect(render_pass, image: np.ndarray) -> None:
 
     Blender 3.x takes an (H*W, C) array, Blender 4.x and 5.x a flat one."""
     h, w, c = image.shape
-    rows = np.ascontiguousarray(image[::-1].reshape(h * w, c), dtype=np.float32)
+    write_rows(render_pass, np.ascontiguousarray(image[::-1].reshape(h * w, c), dtype=np.float32))
+
+
+def write_rows(render_pass, rows: np.ndarray) -> None:
+    """Write (H*W, C) float32 bottom-row-first pixels into a render pass. ``foreach_set`` on
+    the pass's rect is a memory copy (0.02 s at 1920x1080); assigning an array goes through a
+    Python sequence per pixel (seconds). Stand-ins and old Blenders take the assignment."""
+    rect = getattr(render_pass, "rect", None)
+    if hasattr(rect, "foreach_set"):
+        try:
+            rect.foreach_set(rows.ravel())
+            return
+        except (TypeError, ValueError, RuntimeError):
+            pass
+    rows = rows.copy()  # (an assignment may keep the array: the caller's buffer changes)
     try:
         render_pass.rect = rows.ravel()
     except (TypeError, ValueError):
         render_pass.rect = rows
+
+
+class DisplayStream:
+    """The render view's pixels, prepared in a thread of their own while the engine renders:
+    the running sums of the total in display RGB (``bands.total_to_rows``), redone only for the
+    rows that changed, and now and then the image's noise figure from every eighth row and
+    column. The main thread only hands a ready frame to Blender (``show``), so Esc is seen at
+    once and streaming costs the main thread almost nothing. The thread looks for news every
+    MIN_INTERVAL_S, or 20 times the time one frame took to prepare (its share of the machine
+    about 5 %) but at most MAX_INTERVAL_S."""
+
+    MIN_INTERVAL_S, MAX_INTERVAL_S = 0.2, 0.5
+    ERROR_INTERVAL_S = 2.0
+    ERROR_STRIDE = 8  # the noise figure from every 8th row and column (32k pixels at 1080p)
+
+    def __init__(self, renderer, camera: str, size: tuple[int, int], bands):
+        self.renderer, self.camera, self.bands = renderer, camera, bands
+        self.width, self.height = size
+        self._fresh = False
+        self.samples = 0
+        self.error = None
+        self.prep_times: list[float] = []
+        self._version = -1
+        self._rows = np.zeros((self.height, self.width, 4), np.float32)  # bottom row first
+        self._rows[..., 3] = 1.0
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._loop, name="photic-display", daemon=True)
+        self._thread.start()
+
+    BLOCK_ROWS = 64  # rows converted at a time: small temporaries, the engine's lock held briefly
+
+    def _loop(self) -> None:
+        interval, last_error = self.MIN_INTERVAL_S, -1e9
+        while not self._stop.wait(interval):
+            try:
+                t0 = time.perf_counter()
+                if not self._refresh():
+                    continue
+                if t0 - last_error >= self.ERROR_INTERVAL_S:
+                    snap = self.renderer.snapshot(self.camera, stride=self.ERROR_STRIDE)
+                    if snap is not None:
+                        self.error = image_relative_error(snap)
+                    last_error = t0
+                prep = time.perf_counter() - t0
+                self.prep_times.append(prep)
+                interval = min(self.MAX_INTERVAL_S, max(self.MIN_INTERVAL_S, 20.0 * prep))
+            except Exception:  # noqa: BLE001  (the display must never stop the render)
+                traceback.print_exc()
+                interval = self.MAX_INTERVAL_S
+
+    def _refresh(self) -> bool:
+        """Redo the rows that changed since the last look; whether any did."""
+        changed = self.renderer.changed_rows(self.camera, self._version)
+        if changed is None:
+            return False
+        first, end, version = changed
+        for r0 in range(first, end, self.BLOCK_ROWS):
+            got = self.renderer.total_sums(self.camera, rows=(r0, min(end, r0 + self.BLOCK_ROWS)))
+            if got is None:
+                return False
+            r1 = r0 + got.total.shape[0]
+            if got.n.size:
+                self.samples = max(self.samples, int(got.n.max()))
+            block = bandmod.total_to_rows(got.total, got.n, self.bands).reshape(r1 - r0, self.width, 4)
+            with self._lock:
+                self._rows[self.height - r1:self.height - r0] = block
+                self._fresh = True
+        self._version = version
+        return True
+
+    def show(self, write) -> bool:
+        """Hand the newest image, when there is one not yet shown, to ``write`` ((H*W, 4)
+        float32, bottom row first; valid during the call only); whether it was called."""
+        with self._lock:
+            if not self._fresh:
+                return False
+            self._fresh = False
+            write(self._rows.reshape(-1, 4))
+            return True
+
+    def finish(self):
+        """Stop, and the image as the sums stand now ((H*W, 4), bottom row first; None before
+        the first piece of a pass): what a cancelled render keeps in its Combined pass."""
+        self.stop()
+        self._refresh()
+        return self._rows.reshape(-1, 4) if self._version >= 0 else None
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join()
 
 
 def image_passes(image, bands) -> dict:
@@ -251,36 +358,45 @@ class FinalRender:
                 holder["error"] = exc
                 traceback.print_exc()
 
-        last = {"update": 0.0, "samples": 0}
+        last = {"stats": 0.0}
+        display = (DisplayStream(renderer, camera.name, (width, height), bands)
+                   if camera is not None and STREAM else None)
 
         def tick(result, now):
-            if now - last["update"] < UPDATE_INTERVAL_S:
-                return
-            snap = renderer.snapshot(camera.name) if camera is not None else None
-            if snap is not None and snap.samples != last["samples"]:
-                last["samples"] = snap.samples
-                self._show(result, snap, bands, now - t0)
-            last["update"] = now
-            self._report_progress(renderer, snap, now)
+            if display is not None:  # pixels prepared off this thread: only handed over here
+                display.show(lambda rows: self._show_rows(result, rows, now - t0))
+            if now - last["stats"] >= UPDATE_INTERVAL_S:
+                last["stats"] = now
+                self._report_progress(renderer, display, now)
 
         def final_image():
             final = holder.get("result")
             return (final.images[camera.name] if final is not None and camera is not None
                     and camera.name in final.images else None)
 
-        self._poll(work, "photic-render", renderer.cancel, tick, final_image, (width, height), bands)
+        try:
+            # Esc: the render view keeps the streamed image (the Combined pass; the others are
+            # written by a render that finishes), brought up to the last piece of a pass, and
+            # the engine skips assembling images nobody will see (a second at 1920 x 1080).
+            self._poll(work, "photic-render", lambda: renderer.cancel(images=False), tick, final_image,
+                       (width, height), bands, cancelled_rows=display.finish if display is not None else None)
+        finally:
+            if display is not None:
+                display.stop()
+                self.summary["display_prep_s"] = display.prep_times
         if "error" in holder:
             self.fail(f"render failed: {holder['error']}")
             return
         final = holder["result"]
-        self.summary["samples"] = final.images[camera.name].samples if camera else 0
+        img = final.images.get(camera.name) if camera else None
+        self.summary["samples"] = (img.samples if img is not None
+                                   else display.samples if display is not None else 0)
         self.summary["stats"] = final.stats
         self.summary["warnings"] = list(final.warnings)
         for w in final.warnings:
             engine.report({"WARNING"}, f"Photic: {w}")
         self._radiometers(photic, final, bscene)
         self.progress(1.0)
-        img = final.images.get(camera.name) if camera else None
         adaptive = ""
         if img is not None and img.noise_threshold is not None and img.pixel_samples is not None:
             adaptive = (f" (noise threshold: mean {float(np.mean(img.pixel_samples)):.0f}, "
@@ -367,18 +483,21 @@ class FinalRender:
                 key, why = next(iter(report.failed.items()))
                 self.fail(f"{len(report.failed)} work unit(s) failed on {address} (first: {key}: {why})")
             return  # cancelled: the partial image is kept
-        self.summary["samples"] = final.images[camera.name].samples if camera else 0
+        img = final.images.get(camera.name) if camera else None
+        self.summary["samples"] = (img.samples if img is not None
+                                   else display.samples if display is not None else 0)
         self.summary["stats"] = final.stats
         self._radiometers(photic, final, bscene)
         self.progress(1.0)
         self.stats(f"{self.summary['samples']} samples, {total} units on Dask {address} in "
                    f"{time.perf_counter() - t0:.1f} s")
 
-    def _poll(self, work, name: str, cancel, tick, final_image, size, bands) -> None:
+    def _poll(self, work, name: str, cancel, tick, final_image, size, bands, cancelled_rows=None) -> None:
         """Run work() in a thread while Blender waits, polling every POLL_S: Esc calls cancel()
         (once), otherwise tick(result, now) may update the render view. At the end, or after an
         error in the loop (then cancel() first), the thread is joined, the cancel latency
-        recorded and final_image() (when not None) written into the render result."""
+        recorded and final_image() (when not None) written into the render result; without one,
+        after Esc, cancelled_rows() (when given and not None) as its Combined pass."""
         engine = self.engine
         thread = threading.Thread(target=work, name=name, daemon=True)
         result = engine.begin_result(0, 0, *size)
@@ -403,10 +522,14 @@ class FinalRender:
                 self.summary["cancel_latency_s"] = time.perf_counter() - cancel_at
             image = final_image()
             if image is not None:
-                self._write(result, image, bands)
-                stops = bandmod.auto_exposure(bandmod.bands_to_rgba(image.mean, bands))
+                passes = self._write(result, image, bands)
+                stops = bandmod.auto_exposure(passes["Combined"])
                 if stops is not None:
                     self.summary["auto_exposure"] = stops
+            elif cancel_at is not None and cancelled_rows is not None:
+                rows = cancelled_rows()
+                if rows is not None:
+                    write_rows(self._combined(result), rows)
             engine.end_result(result)
 
     def _show(self, result, image, bands, t: float) -> None:
@@ -416,9 +539,10 @@ class FinalRender:
         self.summary["updates"] += 1
         self.summary["update_times"].append(t)
 
-    def _write(self, result, image, bands) -> None:
+    def _write(self, result, image, bands) -> dict:
         layer = result.layers[0]
-        for name, pixels in image_passes(image, bands).items():
+        passes = image_passes(image, bands)
+        for name, pixels in passes.items():
             p = layer.passes.get(name) if hasattr(layer.passes, "get") else None
             if p is None:
                 try:
@@ -426,17 +550,31 @@ class FinalRender:
                 except (KeyError, IndexError):
                     continue
             set_rect(p, pixels)
+        return passes
 
-    def _report_progress(self, renderer, snap, now) -> None:
+    @staticmethod
+    def _combined(result):
+        layer = result.layers[0]
+        return layer.passes.get("Combined") if hasattr(layer.passes, "get") else layer.passes["Combined"]
+
+    def _show_rows(self, result, frame, t: float) -> None:
+        """A streamed update of the render view: the Combined pass only (the others are
+        written once, at the end), from rows the display thread prepared."""
+        write_rows(self._combined(result), frame)
+        self.engine.update_result(result)
+        self.summary["updates"] += 1
+        self.summary["update_times"].append(t)
+
+    def _report_progress(self, renderer, display, now) -> None:
         self.progress(0.02 + 0.98 * renderer.progress)
         elapsed = now - (renderer.t_start or now)
         rays = renderer.counters["segments"] / elapsed if elapsed > 0 else 0.0
         text = f"{rays / 1e6:.2f} M rays/s"
-        if snap is not None:
-            err = image_relative_error(snap)
+        if display is not None and display.samples:
+            err = display.error
             noise = ("error: 2 samples per pixel needed" if err is None
                      else f"error {100 * err:.1f}% (image RMS, 1 sigma)")
-            text = f"sample {snap.samples}/{renderer.samples} | {text} | {noise}"
+            text = f"sample {display.samples}/{renderer.samples} | {text} | {noise}"
         remaining = elapsed * (1 - renderer.progress) / renderer.progress if renderer.progress > 0 else None
         if remaining is not None:
             text += f" | {remaining:.0f} s left"

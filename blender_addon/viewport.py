@@ -108,18 +108,19 @@ class ViewportRender:
             engine.update_stats("", f"Photic: {self.message}")
         renderer = self.renderer
         if renderer is not None:
-            snap = renderer.snapshot("viewport")
-            if snap is not None and snap.samples != self.texture_samples:
-                rgba = bandmod.bands_to_rgba(snap.mean, self.bands)[::-1]
+            changed = renderer.changed_rows("viewport", self.texture_samples)
+            got = renderer.total_sums("viewport", rows=(0, height)) if changed is not None else None
+            if got is not None:
+                rows = bandmod.total_to_rows(got.total, got.n, self.bands)
                 scene = depsgraph.scene_eval
                 if scene.photic.auto_exposure:  # display only: the net exposure is the image's
-                    stops = bandmod.auto_exposure(rgba)
+                    stops = bandmod.auto_exposure(rows)
                     if stops is not None:
-                        rgba[..., :3] *= 2.0 ** (stops - scene.view_settings.exposure)
-                buf = gpu.types.Buffer("FLOAT", rgba.size, np.ascontiguousarray(rgba).ravel())
+                        rows[:, :3] *= 2.0 ** (stops - scene.view_settings.exposure)
+                buf = gpu.types.Buffer("FLOAT", rows.size, rows.ravel())
                 self.texture = gpu.types.GPUTexture((width, height), format="RGBA16F", data=buf)
-                self.texture_samples = snap.samples
-                engine.update_stats("", f"Photic: sample {snap.samples}/{renderer.samples}")
+                self.texture_samples = changed[2]
+                engine.update_stats("", f"Photic: sample {int(np.max(got.n))}/{renderer.samples}")
             if self.thread is not None and self.thread.is_alive():
                 engine.tag_redraw()
         if self.texture is not None:

@@ -665,6 +665,23 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
 
 namespace {
 
+// The ray through image point (x, y) in pixels from the top left corner: normalised image
+// coordinates in [-1, 1] horizontally, row 0 at the top. A lens shift moves the image window
+// by whole image widths (2 in these units).
+inline void camera_ray(const Camera& cam, double x, double y, Vec3* o, Vec3* d) {
+    double aspect = double(cam.height) / double(cam.width);
+    double sx = 2.0 * (x / cam.width) - 1.0 + 2.0 * cam.shift_x;
+    double sy = (1.0 - 2.0 * (y / cam.height)) * aspect + 2.0 * cam.shift_y;
+    if (cam.orthographic) {
+        double hw = 0.5 * cam.ortho_width;
+        *o = cam.position + cam.right * (sx * hw) + cam.up * (sy * hw) + cam.forward * cam.clip_start;
+        *d = cam.forward;
+    } else {
+        *d = normalize(cam.forward + cam.right * (sx * cam.tan_half_fov) + cam.up * (sy * cam.tan_half_fov));
+        *o = cam.position + *d * (cam.clip_start / dot(*d, cam.forward));
+    }
+}
+
 // Adds one sample's components to the running sums: component 0 is their total.
 inline void accumulate(const Spectrum* comp, int nb, double* s, double* s2) {
     for (int k = 0; k < nb; ++k) {
@@ -683,21 +700,26 @@ inline void accumulate(const Spectrum* comp, int nb, double* s, double* s2) {
 }  // namespace
 
 void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
-                          double* sum, double* sumsq, Counters* total, const uint8_t* active) const {
+                          double* sum, double* sumsq, Counters* total, const uint8_t* active,
+                          int row0, int row1) const {
     const Camera& cam = cameras.at(ci);
+    if (row1 < 0 || row1 > cam.height) row1 = cam.height;
+    row0 = std::clamp(row0, 0, row1);
     const int nb = nbands;
     const size_t stride = size_t(kNumComponents) * nb;
     int nthreads = threads <= 0 ? int(std::max(1u, std::thread::hardware_concurrency())) : threads;
     std::vector<Counters> per_thread(std::max(64, nthreads));
     // One task per row: a pixel's samples are always summed by one thread in order.
-    parallel_for(size_t(cam.height), nthreads, [&](size_t row, int tid) {
+    parallel_for(size_t(row1 - row0), nthreads, [&](size_t r, int tid) {
         if (cancel_flag.load(std::memory_order_relaxed)) return;
         Counters& cnt = per_thread[tid];
+        const size_t row = size_t(row0) + r;
         for (int px = 0; px < cam.width; ++px) {
             size_t pix = row * size_t(cam.width) + size_t(px);
             if (active && !active[pix]) continue;
-            double* s = sum + pix * stride;
-            double* s2 = sumsq + pix * stride;
+            size_t at = (r * size_t(cam.width) + size_t(px)) * stride;  // in the rows' buffers
+            double* s = sum + at;
+            double* s2 = sumsq + at;
             for (uint64_t si = start; si < start + count; ++si) {
                 Rng rng(seed, 0x100000000ull * uint64_t(ci + 1), uint64_t(pix) * 0x100000000ull + si);
                 double fx, fy;
@@ -709,22 +731,8 @@ void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
                 } else {
                     fx = (u1 - 0.5) * cam.filter_width; fy = (u2 - 0.5) * cam.filter_width;
                 }
-                // Normalised image coordinates in [-1, 1] horizontally, row 0 at the top.
-                // A lens shift moves the image window by whole image widths (2 in these units).
-                double aspect = double(cam.height) / double(cam.width);
-                double sx = 2.0 * ((px + 0.5 + fx) / cam.width) - 1.0 + 2.0 * cam.shift_x;
-                double sy = (1.0 - 2.0 * ((row + 0.5 + fy) / cam.height)) * aspect + 2.0 * cam.shift_y;
                 Vec3 o, d;
-                if (cam.orthographic) {
-                    double hw = 0.5 * cam.ortho_width;
-                    o = cam.position + cam.right * (sx * hw) + cam.up * (sy * hw) +
-                        cam.forward * cam.clip_start;
-                    d = cam.forward;
-                } else {
-                    d = normalize(cam.forward + cam.right * (sx * cam.tan_half_fov) +
-                                  cam.up * (sy * cam.tan_half_fov));
-                    o = cam.position + d * (cam.clip_start / dot(d, cam.forward));
-                }
+                camera_ray(cam, px + 0.5 + fx, row + 0.5 + fy, &o, &d);
                 Components L = trace(o, d, cam.medium, false, false, rng, cnt, 1.0, true);
                 Spectrum comp[kNumComponents] = {Spectrum(), L.beam_surface, L.beam_volume, L.path, Spectrum()};
                 accumulate(comp, nb, s, s2);
@@ -735,6 +743,89 @@ void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
         for (const auto& c : per_thread) {
             total->segments += c.segments; total->shadow_rays += c.shadow_rays; total->paths += c.paths;
         }
+}
+
+void Scene::camera_guides(int ci, int per_axis, int threads, float* albedo, float* normal) const {
+    const Camera& cam = cameras.at(ci);
+    const int nb = nbands;
+    const int n = std::max(1, per_axis);
+    const double inv = 1.0 / double(n * n);
+    const double far = 1e6;  // m: a ray that meets nothing, as far as water can matter
+    int nthreads = threads <= 0 ? int(std::max(1u, std::thread::hardware_concurrency())) : threads;
+    parallel_for(size_t(cam.height), nthreads, [&](size_t row, int) {
+        for (int px = 0; px < cam.width; ++px) {
+            double alb[kMaxBands] = {};
+            Vec3 nrm;
+            for (int sy = 0; sy < n; ++sy)
+                for (int sx = 0; sx < n; ++sx) {
+                    Vec3 o, d;
+                    camera_ray(cam, px + (sx + 0.5) / n, double(row) + (sy + 0.5) / n, &o, &d);
+                    int medium = cam.medium;
+                    double wgt[kMaxBands];
+                    std::fill_n(wgt, nb, 1.0);
+                    for (int event = 0; event < 16; ++event) {
+                        Hit h = intersect(o, d);
+                        const double t = h.valid ? h.t : far;
+                        if (medium >= 0) {  // the water in front: what it scatters back
+                            const Water& w = waters[medium];
+                            Spectrum ta, tb;
+                            const Vec3 e = o + d * t;
+                            w.add_optical_depth(&WaterLayer::a, o.z, e.z, t, nb, &ta);
+                            w.add_optical_depth(&WaterLayer::b, o.z, e.z, t, nb, &tb);
+                            if (w.grid) {
+                                double r[VoxelGrid::kMaxFields];
+                                w.grid->integral(o, e, t, r);
+                                w.grid_add_bands(r, &WaterLayer::a, nb, ta.v.data());
+                                w.grid_add_bands(r, &WaterLayer::b, nb, tb.v.data());
+                            }
+                            for (int k = 0; k < nb; ++k) {
+                                double tau = ta.v[k] + tb.v[k];
+                                double tr = std::exp(-tau);
+                                if (tau > 0.0) alb[k] += wgt[k] * (1.0 - tr) * tb.v[k] / tau * inv;
+                                wgt[k] *= tr;
+                            }
+                        }
+                        if (!h.valid) break;  // the sky: no surface (albedo 0, normal 0)
+                        const Vec3 x = o + d * h.t;
+                        const double off = offset_for(x);
+                        if (h.kind == SurfaceKind::kOpaque) {
+                            Vec3 nf = dot(h.n, d) > 0.0 ? -h.n : h.n;
+                            double mean_w = 0.0;
+                            for (int k = 0; k < nb; ++k) {
+                                alb[k] += wgt[k] * materials[h.index].reflectance.v[k] * inv;
+                                mean_w += wgt[k];
+                            }
+                            nrm = nrm + nf * (mean_w / nb * inv);
+                            break;
+                        }
+                        // A water boundary: through it as the more likely of its two ways (a
+                        // specular surface; the guides show what lies beyond, as Cycles' do).
+                        const Water& w = waters[h.index];
+                        const bool entering = dot(d, h.n) < 0.0;
+                        const double n1 = entering ? 1.0 : w.ior, n2 = entering ? w.ior : 1.0;
+                        const Vec3 ng = entering ? h.n : -h.n;
+                        const Vec3 ns = (h.id == -3 ? !ocean_flat : h.id >= 0) ? (entering ? h.ns : -h.ns) : ng;
+                        Vec3 dt;
+                        const bool through = refract(d, ns, n1, n2, &dt) && dot(dt, ng) < 0.0 &&
+                                             fresnel_unpolarized(-dot(d, ns), n1, n2) < 0.5;
+                        if (through) {
+                            d = dt;
+                            o = x - ng * off;
+                            medium = entering ? h.index : -1;
+                        } else {
+                            d = normalize(reflect(d, ns));
+                            if (dot(d, ng) <= 0.0) d = normalize(reflect(d, ng));
+                            o = x + ng * off;
+                        }
+                    }
+                }
+            const size_t pix = row * size_t(cam.width) + size_t(px);
+            for (int k = 0; k < nb; ++k) albedo[pix * nb + k] = float(std::min(1.0, std::max(0.0, alb[k])));
+            normal[pix * 3 + 0] = float(nrm.x);
+            normal[pix * 3 + 1] = float(nrm.y);
+            normal[pix * 3 + 2] = float(nrm.z);
+        }
+    });
 }
 
 void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_sensor, int n_at_sensor,

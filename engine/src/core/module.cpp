@@ -462,9 +462,16 @@ PYBIND11_MODULE(_core, m) {
         .def("reset_cancel", [](Scene& s) { s.cancel_flag.store(false); })
         .def_property_readonly("cancelled", [](const Scene& s) { return s.cancel_flag.load(); })
         .def("render_camera", [](const Scene& s, int cam, uint64_t start, uint64_t count, int threads, py::object out,
-                                 py::object active) {
+                                 py::object active, py::object rows) {
             const Camera& c = s.cameras.at(cam);
-            auto [sum, sq] = pass_buffers(out, {c.height, c.width, kNumComponents, s.nbands});
+            int row0 = 0, row1 = c.height;
+            if (!rows.is_none()) {
+                auto t = rows.cast<std::pair<int, int>>();
+                row0 = t.first; row1 = t.second;
+                if (row0 < 0 || row1 > c.height || row0 >= row1)
+                    throw std::invalid_argument("rows: expected (first, end) with 0 <= first < end <= height");
+            }
+            auto [sum, sq] = pass_buffers(out, {row1 - row0, c.width, kNumComponents, s.nbands});
             py::array_t<uint8_t, py::array::c_style | py::array::forcecast> mask;
             if (!active.is_none()) {
                 mask = active.cast<py::array_t<uint8_t, py::array::c_style | py::array::forcecast>>();
@@ -475,14 +482,27 @@ PYBIND11_MODULE(_core, m) {
             {
                 py::gil_scoped_release nogil;
                 s.render_camera(cam, start, count, threads, sum.mutable_data(), sq.mutable_data(), &cnt,
-                                active.is_none() ? nullptr : mask.data());
+                                active.is_none() ? nullptr : mask.data(), row0, row1);
             }
             return py::make_tuple(sum, sq, counters_dict(cnt));
         }, py::arg("camera"), py::arg("start"), py::arg("count"), py::arg("threads") = 0, py::arg("out") = py::none(),
-           py::arg("active") = py::none(),
+           py::arg("active") = py::none(), py::arg("rows") = py::none(),
            "One pass of samples [start, start + count) per pixel: (sum, sum of squares, counters); "
            "out = (sum, sum of squares) arrays to fill instead of new ones; active = a (height, "
-           "width) mask: pixels where it is 0 take no samples (their sums are 0).")
+           "width) mask: pixels where it is 0 take no samples (their sums are 0); rows = (first, "
+           "end): only those rows (the sums' first axis has end - first rows).")
+        .def("camera_guides", [](const Scene& s, int cam, int per_axis, int threads) {
+            const Camera& c = s.cameras.at(cam);
+            if (per_axis < 1 || per_axis > 16) throw std::invalid_argument("per_axis: expected 1..16");
+            py::array_t<float> albedo({c.height, c.width, s.nbands}), normal({c.height, c.width, 3});
+            {
+                py::gil_scoped_release nogil;
+                s.camera_guides(cam, per_axis, threads, albedo.mutable_data(), normal.mutable_data());
+            }
+            return py::make_tuple(albedo, normal);
+        }, py::arg("camera"), py::arg("per_axis") = 2, py::arg("threads") = 0,
+           "Denoising guides of a camera, (albedo (H, W, bands), normal (H, W, 3)) float32, from "
+           "per_axis^2 fixed sub-pixel rays per pixel (Scene::camera_guides).")
         .def("render_radiometer", [](const Scene& s, int rad, uint64_t start, uint64_t count, int threads, py::object out,
                                      py::object moments) {
             int nbins = s.radiometers.at(rad).bins();

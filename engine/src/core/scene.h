@@ -480,8 +480,19 @@ public:
     // sum[(pixel * kNumComponents + component) * nbands + band]; components are
     // total, beam_surface, beam_volume, path, beam_direct.
     // active (optional, height x width): pixels where it is 0 are skipped (adaptive sampling).
+    // Rows [row0, row1) only (row1 < 0: to the last): sum and sumsq hold those rows; active, when
+    // given, covers the whole image.
     void render_camera(int cam, uint64_t start, uint64_t count, int threads,
-                       double* sum, double* sumsq, Counters* total, const uint8_t* active = nullptr) const;
+                       double* sum, double* sumsq, Counters* total, const uint8_t* active = nullptr,
+                       int row0 = 0, int row1 = -1) const;
+    // Denoising guides of a camera (what a denoiser such as OpenImageDenoise takes besides the
+    // noisy image), per_axis^2 fixed sub-pixel rays per pixel, deterministic and noise-free:
+    // albedo (height x width x nbands): the share of light a pixel's view returns, the first
+    // opaque surface's reflectance seen through the water in front of it (and through water
+    // boundaries, along their more likely way), plus what that water scatters (its optical
+    // depths' single-scattering albedo times 1 - transmittance); normal (height x width x 3):
+    // that surface's world normal facing the camera, weighted by the light that reaches it.
+    void camera_guides(int cam, int per_axis, int threads, float* albedo, float* normal) const;
     // Sums over samples [start, start + count) per bin, component and band (chunked, fixed order).
     // moments (optional): per bin and band, the total's central sums of powers 2, 3 and 4 about
     // the pass's own mean, moments[(bin * 3 + (power - 2)) * nbands + band]: the tails of the

@@ -229,45 +229,56 @@ def combine_round_sums(rounds: list[RadiometerSums]) -> dict:
 
 
 class CameraSums:
-    """Per-pixel sums of one camera: (H, W, components + 1, bands) s and s2, and for the
-    between-pass analysis b = sum over passes of (pass sum of the total)^2 / pass size.
+    """Per-pixel sums of one camera: (H, W, components + 1, bands) s, the total's sums of
+    squares s2 (H, W, 1, bands: the components' are not needed, and at 1920 x 1080 with 10
+    bands they would take 660 MB), and for the between-pass analysis b = sum over passes of
+    (pass sum of the total)^2 / pass size.
 
     With adaptive sampling (``add_pass`` given an active mask) pixels take different passes:
     ``n`` (samples), ``passes`` and ``sum_n2`` (sum of squared pass sizes) per pixel."""
 
     def __init__(self, shape: tuple, between: bool):
-        self.s, self.s2 = np.zeros(shape), np.zeros(shape)
+        self.s, self.s2 = np.zeros(shape), np.zeros(shape[:2] + (1,) + shape[3:])
         self.b = np.zeros(shape[:2] + shape[3:]) if between else None
         self.sizes: list[int] = []     # pass sizes (band group 0)
         self.n = np.zeros(shape[:2], np.int64)
         self.passes = np.zeros(shape[:2], np.int64)
         self.sum_n2 = np.zeros(shape[:2])
         self.adaptive = False          # whether some pass skipped some pixels
+        self.partial = False           # a pass is under way: some rows have taken it, some not
 
-    def copy(self) -> "CameraSums":
-        c = CameraSums(self.s.shape, self.b is not None)
-        c.s, c.s2 = self.s.copy(), self.s2.copy()
-        c.b = None if self.b is None else self.b.copy()
+    def copy(self, stride: int = 1) -> "CameraSums":
+        """A copy; ``stride`` > 1: of every stride-th row and column only."""
+        k = slice(None, None, max(1, int(stride)))
+        c = CameraSums.__new__(CameraSums)
+        c.s, c.s2 = self.s[k, k].copy(), self.s2[k, k].copy()
+        c.b = None if self.b is None else self.b[k, k].copy()
         c.sizes = list(self.sizes)
-        c.n, c.passes, c.sum_n2 = self.n.copy(), self.passes.copy(), self.sum_n2.copy()
-        c.adaptive = self.adaptive
+        c.n, c.passes, c.sum_n2 = self.n[k, k].copy(), self.passes[k, k].copy(), self.sum_n2[k, k].copy()
+        c.adaptive, c.partial = self.adaptive, self.partial
         return c
 
     def add_pass(self, g: slice, s: np.ndarray, s2: np.ndarray, n: int, first_group: bool,
-                 active: np.ndarray | None = None) -> None:
-        """A pass of ``n`` samples per pixel over band group ``g``; ``active`` (H, W): the
-        pixels that took it (None: all)."""
-        self.s[..., g] += s
-        self.s2[..., g] += s2
+                 active: np.ndarray | None = None, rows: tuple[int, int] | None = None,
+                 new_pass: bool = True, last_piece: bool = True) -> None:
+        """A pass of ``n`` samples per pixel over band group ``g``, or a piece of one: rows
+        (first, end) only (s, s2 hold those rows), ``new_pass`` on its first piece,
+        ``last_piece`` on its last (until then ``partial``: pixels differ in samples).
+        ``active`` (H, W): the pixels that took it (None: all)."""
+        r = slice(None) if rows is None else slice(*rows)
+        self.s[r, :, :, g] += s
+        self.s2[r, :, :, g] += s2[:, :, :1, :]
         if self.b is not None:
-            self.b[..., g] += s[:, :, 0, :] ** 2 / n
+            self.b[r, :, g] += s[:, :, 0, :] ** 2 / n
         if first_group:
-            self.sizes.append(int(n))
-            took = 1 if active is None else (np.asarray(active) != 0)
-            self.n += n * took
-            self.passes += took
-            self.sum_n2 += float(n) * n * took
-            self.adaptive = self.adaptive or (active is not None and not np.all(took))
+            took = 1 if active is None else (np.asarray(active)[r] != 0)
+            self.n[r] += n * took
+            self.passes[r] += took
+            self.sum_n2[r] += float(n) * n * took
+            if new_pass:
+                self.sizes.append(int(n))
+                self.adaptive = self.adaptive or (active is not None and not np.all(active))
+            self.partial = not last_piece
 
 
 def image_variance(s: np.ndarray, s2: np.ndarray, n, b: np.ndarray | None = None,

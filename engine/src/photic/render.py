@@ -8,6 +8,7 @@ keeps only completed passes.
 """
 from __future__ import annotations
 
+import math
 import os
 import threading
 import time
@@ -303,23 +304,64 @@ def sensor_warnings(core, scene: Scene) -> list[str]:
     return out
 
 
-def image_result(name: str, sums: CameraSums, n: int) -> ImageResult:
-    """A camera's result from its sums over ``n`` samples per pixel (adaptive sampling: each
-    pixel's own, from the sums)."""
-    if not sums.adaptive:
-        mean, _ = mean_stderr(sums.s, sums.s2, n)
-        var = image_variance(sums.s[:, :, 0, :], sums.s2[:, :, 0, :], n, sums.b, sums.sizes)
-        comps = {c: mean[:, :, i + 1, :] for i, c in enumerate(COMPONENTS[:3])}
-        return ImageResult(name, mean[:, :, 0, :], var, n, comps)
-    mean, _ = mean_stderr(sums.s, sums.s2, sums.n[:, :, None, None])
-    var = image_variance(sums.s[:, :, 0, :], sums.s2[:, :, 0, :], sums.n, sums.b,
-                         passes=sums.passes, sum_n2=sums.sum_n2)
+@dataclass
+class DisplaySums:
+    """Rows [first, first + len(total)) of a camera's running sums of the total (rows, W,
+    bands) with each pixel's samples (rows, W); ``version`` grows with every piece added."""
+    total: np.ndarray
+    n: np.ndarray
+    first: int
+    version: int
+
+
+IMAGE_BLOCK_ROWS = 32  # image_result works on bands of rows: its temporaries stay in cache
+
+
+def image_result(name: str, sums: CameraSums, n: int, in_place: bool = False) -> ImageResult:
+    """A camera's result from its sums over ``n`` samples per pixel (adaptive sampling, or a
+    pass under way: each pixel's own, from the sums). Done by bands of rows, so that a large
+    image (1920 x 1080 x 10 bands) makes no large temporaries; ``in_place``: the result takes
+    the sums' memory (they are spent), which spares allocating (and the system zeroing) as much
+    again: most of the time this step takes at that size."""
+    per_pixel = sums.adaptive or sums.partial
+    height = sums.s.shape[0]
+    mean = sums.s if in_place else np.empty(sums.s.shape)
+    var = sums.s2[:, :, 0, :] if in_place else np.empty(sums.s.shape[:2] + sums.s.shape[3:])
+    for r0 in range(0, height, IMAGE_BLOCK_ROWS):
+        r = slice(r0, min(height, r0 + IMAGE_BLOCK_ROWS))
+        b = None if sums.b is None else sums.b[r]
+        if per_pixel:
+            v = image_variance(sums.s[r, :, 0, :], sums.s2[r, :, 0, :], sums.n[r], b,
+                               passes=sums.passes[r], sum_n2=sums.sum_n2[r])
+            np.divide(sums.s[r], np.maximum(sums.n[r], 1.0)[:, :, None, None], out=mean[r])
+        else:
+            v = image_variance(sums.s[r, :, 0, :], sums.s2[r, :, 0, :], n, b, sums.sizes)
+            np.divide(sums.s[r], max(float(n), 1.0), out=mean[r])
+        var[r] = v
     comps = {c: mean[:, :, i + 1, :] for i, c in enumerate(COMPONENTS[:3])}
+    if not per_pixel:
+        return ImageResult(name, mean[:, :, 0, :], var, n, comps)
     return ImageResult(name, mean[:, :, 0, :], var, int(sums.n.max()), comps,
                        pixel_samples=sums.n.copy())
 
 
 ADAPTIVE_FLOOR = 0.05  # pixel values below this fraction of the image's mean count as that
+CHUNK_SECONDS = 0.5             # a camera pass longer than this runs in pieces (bands of rows)
+CHUNK_PIXEL_SAMPLES = 1 << 16   # ... and the first, whose speed is unknown, this many at a time
+
+
+def row_bands(active, height: int, width: int, k: int) -> list[tuple[int, int]]:
+    """A pass over ``active`` pixels (None: all) as at most ``k`` pieces of consecutive rows
+    (first, end) with about equal numbers of active pixels, none without one."""
+    per_row = (np.full(height, width) if active is None
+               else np.count_nonzero(active, axis=1))
+    total = int(per_row.sum())
+    if total == 0:
+        return []
+    k = max(1, min(int(k), height))
+    cuts = np.searchsorted(np.cumsum(per_row), np.linspace(0, total, k + 1)[1:-1], side="left") + 1
+    edges = [0, *sorted(set(int(c) for c in cuts if 0 < c < height)), height]
+    return [(r0, r1) for r0, r1 in zip(edges[:-1], edges[1:]) if per_row[r0:r1].any()]
 
 
 def pixels_converged(img: ImageResult, threshold: float) -> np.ndarray:
@@ -476,28 +518,70 @@ class Renderer:
         self._lock = threading.Lock()
         self._cam_sums: dict = {}
         self._cam_done: dict = {}
+        self._cam_version: dict = {}   # camera -> a count of the pieces of passes added
+        self._cam_rows: dict = {}      # camera -> per row, the version that last changed it
+        self._spent: set = set()       # cameras whose sums became their result
+        self._skip_images = False
         self.progress = 0.0
         self.counters = {"segments": 0, "shadow_rays": 0, "paths": 0}
         self.t_start = None
 
-    def cancel(self) -> None:
-        """Stop as soon as possible (safe to call from another thread)."""
+    def cancel(self, images: bool = True) -> None:
+        """Stop as soon as possible (safe to call from another thread). ``images=False``: the
+        result then has no camera images (their assembly takes about a second at 1920 x 1080
+        with 10 bands), for a caller that shows what ``total_sums`` gave it instead."""
+        self._skip_images = not images
         self._cancel.set()
         core = self._core
         if core is not None:
             core.cancel()
 
-    def snapshot(self, camera: str) -> ImageResult | None:
-        """The current estimate of a camera while it renders (None before its first pass).
+    def snapshot(self, camera: str, stride: int = 1) -> ImageResult | None:
+        """The current estimate of a camera while it renders (None before its first pass);
+        ``stride`` > 1: of every stride-th row and column only (a cheap sample of the image,
+        e.g. for its noise figure).
 
         Safe to call from another thread: passes are added under a lock, so the sums and the
         sample count always belong together."""
         with self._lock:
-            if camera not in self._cam_sums or not self._cam_done.get(camera):
+            if camera not in self._cam_sums or not self._cam_done.get(camera) or camera in self._spent:
                 return None
             n = self._cam_done[camera]
-            sums = self._cam_sums[camera].copy()
+            sums = self._cam_sums[camera].copy(stride)
         return image_result(camera, sums, n)
+
+    def changed_rows(self, camera: str, since: int = -1) -> tuple[int, int, int] | None:
+        """(first, end, version): the rows of a camera that changed after version ``since``
+        (all for -1), and the version they are at; None before its first pass or when nothing
+        changed."""
+        with self._lock:
+            if camera not in self._cam_sums or not self._cam_done.get(camera) or camera in self._spent:
+                return None
+            version = self._cam_version.get(camera, 0)
+            if version <= since:
+                return None
+            if since < 0:
+                return 0, len(self._cam_rows[camera]), version
+            changed = np.flatnonzero(self._cam_rows[camera] > since)
+            return int(changed[0]), int(changed[-1]) + 1, version
+
+    def total_sums(self, camera: str, since: int = -1, rows: tuple[int, int] | None = None) -> DisplaySums | None:
+        """What a display needs of a camera while it renders, copied under the lock: the sums
+        of the total and the samples of ``rows`` (first, end), or of the rows that changed
+        after version ``since`` (all for -1); None before its first pass or when nothing
+        changed."""
+        if rows is None:
+            changed = self.changed_rows(camera, since)
+            if changed is None:
+                return None
+            rows = changed[:2]
+        with self._lock:
+            if camera not in self._cam_sums or not self._cam_done.get(camera) or camera in self._spent:
+                return None
+            sums = self._cam_sums[camera]
+            r = slice(*rows)
+            return DisplaySums(np.ascontiguousarray(sums.s[r, :, 0, :]), sums.n[r].copy(), rows[0],
+                               self._cam_version.get(camera, 0))
 
     def _camera_passes(self) -> list[tuple[int, int]]:
         return camera_passes(self.samples)
@@ -516,8 +600,11 @@ class Renderer:
         cam_sums = self._cam_sums = {c.name: CameraSums((c.resolution[1], c.resolution[0], nc, nb), beams)
                                      for c in scene.cameras}
         cam_done = self._cam_done = {c.name: 0 for c in scene.cameras}
+        self._cam_rows = {c.name: np.zeros(c.resolution[1], np.int64) for c in scene.cameras}
+        self._spent = set()
         cam_passes = self._camera_passes()
-        active_masks: dict = {}  # camera -> the active-pixel mask of each pass (adaptive sampling)
+        camera_steps: dict = {}  # camera -> [(pass index, active mask or None)] of group 0
+        stopped: dict = {}       # camera -> pixels that stopped at the noise threshold
         # per radiometer, its sums per (band group, round); without a target error one round
         # whose sums all band groups fill, keyed (0, 0)
         rad_rounds: list[dict] = [{} for _ in radiometers]
@@ -575,45 +662,71 @@ class Renderer:
                 if gi == 0:
                     nbins_of[ri] = core.radiometer_bins(ri)
             # Cameras: every pass with beams of its own (an independent draw). With a noise
-            # threshold, the pixels that reached it take no further passes: decided on the
-            # first band group, and the same pixels skip the same passes in the others.
+            # threshold, the pixels that reached it take no further passes. A pass that would
+            # take long runs in pieces, bands of rows, so that a display sees pixels within
+            # about CHUNK_SECONDS (the first pass: CHUNK_PIXEL_SAMPLES at a time, its speed
+            # unknown); the pieces are added as they come (each pixel's own passes: the same
+            # numbers). All is decided on the first band group and replayed in the others.
             for ci, cam in enumerate(scene.cameras):
-                shape = (cam.resolution[1], cam.resolution[0], nc, g.stop - g.start)
-                npix = cam.resolution[0] * cam.resolution[1]
-                masks = active_masks.setdefault(cam.name, [])
+                height, width = cam.resolution[1], cam.resolution[0]
+                shape = (height, width, nc, g.stop - g.start)
+                npix = width * height
+                sums = cam_sums[cam.name]
+                plan = camera_steps.setdefault(cam.name, [])  # (pass index, active mask, rows)
+                rate = None  # seconds per pixel-sample, measured
                 for pi, (start, n) in enumerate(cam_passes):
-                    active = None
                     if gi > 0:
-                        if pi >= len(masks):  # every pixel stopped here in the first group
+                        pieces = [(m, rows) for p, m, rows in plan if p == pi]
+                        if not pieces:  # every pixel stopped here in the first group
                             done_work += npix * (self.samples - start)
                             break
-                        active = masks[pi]
-                    elif self.noise_threshold is not None and start >= self.adaptive_min_samples:
-                        with self._lock:
-                            img = image_result(cam.name, cam_sums[cam.name], cam_done[cam.name])
-                        done_px = pixels_converged(img, self.noise_threshold)
-                        if masks and masks[-1] is not None:
-                            done_px |= masks[-1] == 0  # a pixel that stopped stays stopped
-                        if np.all(done_px):
-                            done_work += npix * (self.samples - start)
-                            break
-                        active = np.ascontiguousarray(~done_px, dtype=np.uint8)
-                    if gi == 0:
-                        masks.append(active)
+                    else:
+                        active = None
+                        if self.noise_threshold is not None and start >= self.adaptive_min_samples:
+                            with self._lock:
+                                img = image_result(cam.name, sums, cam_done[cam.name])
+                            done_px = pixels_converged(img, self.noise_threshold)
+                            if stopped.get(cam.name) is not None:
+                                done_px |= stopped[cam.name]  # a pixel that stopped stays stopped
+                            if np.all(done_px):
+                                done_work += npix * (self.samples - start)
+                                break
+                            active = np.ascontiguousarray(~done_px, dtype=np.uint8)
+                            stopped[cam.name] = done_px
+                        taking = npix if active is None else int(np.count_nonzero(active))
+                        work = taking * n
+                        k = (math.ceil(work / CHUNK_PIXEL_SAMPLES) if rate is None
+                             else math.ceil(work * rate / CHUNK_SECONDS))
+                        pieces = [(active, rows) for rows in row_bands(active, height, width, k)]
+                        plan.extend((pi, m, rows) for m, rows in pieces)
                     new_pass(core, self.seed, (0, ci), pi, len(cam_passes), False)
-                    s, s2, c = core.render_camera(ci, start, n, self.threads, out(shape), active)
-                    if core.cancelled:
-                        cancelled = True
+                    taken = 0
+                    for piece, (m, (r0, r1)) in enumerate(pieces):
+                        t_piece = time.perf_counter()
+                        bufs = tuple(b[:r1 - r0] for b in out(shape))  # (a view: no new pages)
+                        s, s2, c = core.render_camera(ci, start, n, self.threads, bufs, m, (r0, r1))
+                        if core.cancelled:
+                            cancelled = True
+                            break
+                        dt = time.perf_counter() - t_piece
+                        px = (r1 - r0) * width if m is None else int(np.count_nonzero(m[r0:r1]))
+                        if px > 0 and dt > 0:
+                            rate = dt / (px * n)
+                        with self._lock:
+                            sums.add_pass(g, s, s2, n, gi == 0, m, rows=(r0, r1),
+                                          new_pass=piece == 0, last_piece=piece == len(pieces) - 1)
+                            if gi == 0:
+                                cam_done[cam.name] = start + n
+                            self._cam_version[cam.name] = version = self._cam_version.get(cam.name, 0) + 1
+                            self._cam_rows[cam.name][r0:r1] = version
+                            add_counts(c)
+                            done_work += px * n
+                        taken += px
+                    if cancelled:
                         break
-                    taking = npix if active is None else int(np.count_nonzero(active))
-                    with self._lock:
-                        cam_sums[cam.name].add_pass(g, s, s2, n, gi == 0, active)
-                        if gi == 0:
-                            cam_done[cam.name] = start + n
-                        add_counts(c)
-                        done_work += npix * n  # (a stopped pixel's share is done too)
+                    done_work += max(0, npix - taken) * n  # (a stopped pixel's share is done too)
                     report(f"camera {cam.name}: {start + n}/{self.samples} samples"
-                           + (f" ({taking / npix:.0%} of pixels)" if active is not None else ""))
+                           + (f" ({taken / npix:.0%} of pixels)" if taken < npix else ""))
                 if cancelled:
                     break
             # Radiometers: in rounds (one without a target error), each pass after pass for
@@ -678,14 +791,20 @@ class Renderer:
         elapsed = time.perf_counter() - t0
 
         for cam in scene.cameras:
-            img = result.images[cam.name] = image_result(cam.name, cam_sums[cam.name], cam_done[cam.name])
+            if cancelled and self._skip_images:
+                break
+            with self._lock:  # the sums are spent: a display asking now gets nothing
+                self._spent.add(cam.name)
+            img = result.images[cam.name] = image_result(cam.name, cam_sums[cam.name], cam_done[cam.name],
+                                                         in_place=True)
             if self.noise_threshold is not None and cam_done[cam.name]:
                 img.noise_threshold = self.noise_threshold
                 if img.pixel_samples is None:
                     img.pixel_samples = np.full(img.mean.shape[:2], img.samples, np.int64)
-                masks = [m for m in active_masks.get(cam.name, []) if m is not None]
-                stopped = (masks[-1] == 0) if masks else np.zeros(img.mean.shape[:2], bool)
-                img.converged = stopped | pixels_converged(img, self.noise_threshold)
+                done_px = stopped.get(cam.name)
+                if done_px is None:
+                    done_px = np.zeros(img.mean.shape[:2], bool)
+                img.converged = done_px | pixels_converged(img, self.noise_threshold)
         reached = 0
         for ri, r in enumerate(radiometers):
             if not rad_rounds[ri]:
