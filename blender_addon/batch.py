@@ -61,7 +61,8 @@ def render_blend(path, frame: int | None = None, out_dir=None, samples: int | No
                  radiometer_samples: int | None = None, seed: int | None = None,
                  threads: int | None = None, resolution_percentage: int | None = None,
                  progress=None, target_error: float | None = None,
-                 noise_threshold: float | None = None, radiometers_only: bool = False) -> dict:
+                 noise_threshold: float | None = None, radiometers_only: bool = False,
+                 png: bool = False) -> dict:
     """Render one frame of a .blend file with Photic.
 
     ``progress(fraction, text)``, when given, is called as the render goes on (a background
@@ -70,7 +71,8 @@ def render_blend(path, frame: int | None = None, out_dir=None, samples: int | No
     Target Error for the radiometers at that value, ``noise_threshold`` (a fraction) its Noise
     Threshold for the pixels. ``radiometers_only`` (or a file without a camera) renders the
     radiometers alone, as Render > Render Radiometers does: tables beside the output, no image
-    (``"image"`` is None). Raises RuntimeError with the add-on's message when the render
+    (``"image"`` is None). ``png``: also a PNG beside the EXR as Blender displays the image
+    (its view transform and exposure; ``"png"``: its path). Raises RuntimeError with the add-on's message when the render
     failed.
     """
     path, scene = open_blend(path)
@@ -119,4 +121,12 @@ def render_blend(path, frame: int | None = None, out_dir=None, samples: int | No
     image = scene.render.frame_path(frame=scene.frame_current)
     bpy.data.images["Render Result"].save_render(filepath=image, scene=scene)
     summary["image"] = image
+    if png:
+        final_render.apply_auto_exposure(scene)  # (as the render_complete handler does)
+        if hasattr(settings, "media_type"):  # Blender 5: a single image is a media type
+            settings.media_type = "IMAGE"
+        settings.file_format = "PNG"
+        settings.color_depth = "8"
+        summary["png"] = str(Path(image).with_suffix(".png"))
+        bpy.data.images["Render Result"].save_render(filepath=summary["png"], scene=scene)
     return summary

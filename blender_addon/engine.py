@@ -24,15 +24,15 @@ class PhoticRenderEngine(bpy.types.RenderEngine):
             vp.stop()
 
     def render(self, depsgraph):
-        for name in final_render.PASS_NAMES:
-            self.add_pass(name, 3, "RGB")
+        for name, channels, kind in final_render.render_passes(depsgraph.scene):
+            if name != "Combined":
+                self.add_pass(name, len(channels), channels)
         final_render.FinalRender(self, depsgraph).run()
 
     def update_render_passes(self, scene=None, renderlayer=None):
         # Makes the passes known to the compositor and the multilayer EXR output.
-        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
-        for name in final_render.PASS_NAMES:
-            self.register_pass(scene, renderlayer, name, 3, "RGB", "COLOR")
+        for name, channels, kind in final_render.render_passes(scene):
+            self.register_pass(scene, renderlayer, name, len(channels), channels, kind)
 
     def view_update(self, context, depsgraph):
         if self.viewport is None:

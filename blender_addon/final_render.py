@@ -29,7 +29,9 @@ COMPONENT_PASSES = (("Photic Beam Surface", "beam_surface"),
                     ("Photic Path", "path"))
 VARIANCE_PASS = "Photic Variance"
 PASS_NAMES = tuple(p for p, _ in COMPONENT_PASSES) + (VARIANCE_PASS,)
+ALBEDO_PASS, NORMAL_PASS, NOISY_PASS = "Denoising Albedo", "Denoising Normal", "Noisy Image"
 UPDATE_INTERVAL_S = 0.5
+FRAME_INTERVAL_S = 0.9  # the render view's image at most this often (each costs a full-image write)
 STREAM = True  # False: the render view gets the image at the end only (to measure streaming's cost)
 POLL_S = 0.02
 DASK_CONNECT_TIMEOUT_S = 10.0  # how long a render waits for its Dask scheduler to answer
@@ -95,7 +97,7 @@ class DisplayStream:
     MIN_INTERVAL_S, or 20 times the time one frame took to prepare (its share of the machine
     about 5 %) but at most MAX_INTERVAL_S."""
 
-    MIN_INTERVAL_S, MAX_INTERVAL_S = 0.2, 0.5
+    MIN_INTERVAL_S, MAX_INTERVAL_S = 0.25, 0.5
     ERROR_INTERVAL_S = 2.0
     ERROR_STRIDE = 8  # the noise figure from every 8th row and column (32k pixels at 1080p)
 
@@ -178,13 +180,39 @@ class DisplayStream:
             self._thread.join()
 
 
-def image_passes(image, bands) -> dict:
-    """The Combined, component and variance passes of an engine ``ImageResult``."""
+def render_passes(scene) -> list[tuple[str, str, str]]:
+    """(name, channels, type) of the passes a render of ``scene`` writes: Combined, the
+    components and variance, and with Denoise or Denoising Data the denoising passes (named as
+    Cycles names them, so the compositor's Denoise node takes them as it takes Cycles')."""
+    out = [("Combined", "RGBA", "COLOR")] + [(n, "RGB", "COLOR") for n in PASS_NAMES]
+    p = getattr(scene, "photic", None) if scene is not None else None
+    if p is not None and (p.denoise or p.denoising_data):
+        out += [(ALBEDO_PASS, "RGB", "COLOR"), (NORMAL_PASS, "XYZ", "VECTOR")]
+    if p is not None and p.denoise:
+        out.append((NOISY_PASS, "RGB", "COLOR"))
+    return out
+
+
+def image_passes(image, bands, denoise: bool = False) -> dict:
+    """The Combined, component and variance passes of an engine ``ImageResult``; with its
+    denoising guides the Denoising Albedo and Normal passes, and with ``denoise`` the Combined
+    pass denoised by OpenImageDenoise and the noisy one as Noisy Image."""
     out = {"Combined": bandmod.bands_to_rgba(image.mean, bands)}
     for name, comp in COMPONENT_PASSES:
         if comp in image.components:
             out[name] = bandmod.bands_to_rgba(image.components[comp], bands)[:, :, :3]
     out[VARIANCE_PASS] = bandmod.bands_to_rgba(image.variance, bands, variance=True)[:, :, :3]
+    albedo = getattr(image, "albedo", None)
+    if albedo is not None:
+        out[ALBEDO_PASS] = np.clip(bandmod.bands_to_rgba(albedo, bands)[:, :, :3], 0.0, 1.0)
+        out[NORMAL_PASS] = np.asarray(image.normal, np.float32)
+    if denoise:
+        from photic.denoise import denoise_rgb
+        noisy = out["Combined"]
+        out[NOISY_PASS] = noisy[:, :, :3].copy()
+        clean = np.ones_like(noisy)
+        clean[:, :, :3] = denoise_rgb(noisy[:, :, :3], out.get(ALBEDO_PASS), out.get(NORMAL_PASS))
+        out["Combined"] = clean
     return out
 
 
@@ -344,8 +372,18 @@ class FinalRender:
             self._run_distributed(photic, scene, bscene, address, bands, camera, t0)
             return
 
+        props = bscene.photic
+        self.denoise = bool(props.denoise)
+        if self.denoise:
+            from photic.denoise import available
+            if not available():
+                self.denoise = False
+                engine.report({"WARNING"}, "Photic: Denoise needs OpenImageDenoise's Python binding "
+                                           "(pip install pyoidn into Blender's Python): the image is "
+                                           "left noisy; the Denoising passes still work with the "
+                                           "compositor's Denoise node")
         try:
-            renderer = photic.render.Renderer(scene)
+            renderer = photic.render.Renderer(scene, guides=bool(props.denoise or props.denoising_data))
         except photic.scene.SceneError as exc:
             self.fail(str(exc))
             return
@@ -358,13 +396,15 @@ class FinalRender:
                 holder["error"] = exc
                 traceback.print_exc()
 
-        last = {"stats": 0.0}
+        last = {"stats": 0.0, "frame": -FRAME_INTERVAL_S}
         display = (DisplayStream(renderer, camera.name, (width, height), bands)
                    if camera is not None and STREAM else None)
 
         def tick(result, now):
-            if display is not None:  # pixels prepared off this thread: only handed over here
-                display.show(lambda rows: self._show_rows(result, rows, now - t0))
+            if display is not None and now - last["frame"] >= FRAME_INTERVAL_S:
+                # pixels prepared off this thread: only handed over here
+                if display.show(lambda rows: self._show_rows(result, rows, now - t0)):
+                    last["frame"] = now
             if now - last["stats"] >= UPDATE_INTERVAL_S:
                 last["stats"] = now
                 self._report_progress(renderer, display, now)
@@ -522,7 +562,7 @@ class FinalRender:
                 self.summary["cancel_latency_s"] = time.perf_counter() - cancel_at
             image = final_image()
             if image is not None:
-                passes = self._write(result, image, bands)
+                passes = self._write(result, image, bands, final=True)
                 stops = bandmod.auto_exposure(passes["Combined"])
                 if stops is not None:
                     self.summary["auto_exposure"] = stops
@@ -539,9 +579,14 @@ class FinalRender:
         self.summary["updates"] += 1
         self.summary["update_times"].append(t)
 
-    def _write(self, result, image, bands) -> dict:
+    def _write(self, result, image, bands, final: bool = False) -> dict:
+        """Write an image's passes into the render result; ``final``: the finished render's,
+        denoised when asked."""
         layer = result.layers[0]
-        passes = image_passes(image, bands)
+        t0 = time.perf_counter()
+        passes = image_passes(image, bands, denoise=final and getattr(self, "denoise", False))
+        if NOISY_PASS in passes:
+            self.summary["denoise_s"] = time.perf_counter() - t0
         for name, pixels in passes.items():
             p = layer.passes.get(name) if hasattr(layer.passes, "get") else None
             if p is None:

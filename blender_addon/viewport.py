@@ -45,7 +45,8 @@ class ViewportRender:
         self.dirty = True
         self.message = None
         self.texture = None
-        self.texture_samples = -1
+        self.texture_samples = -1  # the most samples a pixel of the texture has
+        self.texture_version = -1  # the renderer's version of the sums the texture shows
         self.bands = None
 
     def stop(self) -> None:
@@ -103,12 +104,12 @@ class ViewportRender:
         if self.dirty or key != self.key:
             self.key, self.dirty = key, False
             self._start(context, depsgraph, width, height)
-            self.texture_samples = -1
+            self.texture_samples = self.texture_version = -1
         if self.message:
             engine.update_stats("", f"Photic: {self.message}")
         renderer = self.renderer
         if renderer is not None:
-            changed = renderer.changed_rows("viewport", self.texture_samples)
+            changed = renderer.changed_rows("viewport", self.texture_version)
             got = renderer.total_sums("viewport", rows=(0, height)) if changed is not None else None
             if got is not None:
                 rows = bandmod.total_to_rows(got.total, got.n, self.bands)
@@ -119,8 +120,9 @@ class ViewportRender:
                         rows[:, :3] *= 2.0 ** (stops - scene.view_settings.exposure)
                 buf = gpu.types.Buffer("FLOAT", rows.size, rows.ravel())
                 self.texture = gpu.types.GPUTexture((width, height), format="RGBA16F", data=buf)
-                self.texture_samples = changed[2]
-                engine.update_stats("", f"Photic: sample {int(np.max(got.n))}/{renderer.samples}")
+                self.texture_version = changed[2]
+                self.texture_samples = int(np.max(got.n))
+                engine.update_stats("", f"Photic: sample {self.texture_samples}/{renderer.samples}")
             if self.thread is not None and self.thread.is_alive():
                 engine.tag_redraw()
         if self.texture is not None:

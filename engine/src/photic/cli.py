@@ -319,7 +319,8 @@ def cmd_blend(args) -> int:
                                          seed=args.seed, threads=args.threads, progress=progress,
                                          target_error=args.target_error,
                                          noise_threshold=args.noise_threshold,
-                                         radiometers_only=args.radiometers_only)
+                                         radiometers_only=args.radiometers_only,
+                                         png=args.png)
         finally:
             if bar is not None:
                 bar.close()
@@ -328,6 +329,8 @@ def cmd_blend(args) -> int:
         return 2
     if summary.get("image"):
         print(f"image: {summary['image']}")
+    if summary.get("png"):
+        print(f"picture: {summary['png']}")
     for t in summary.get("tables", []):
         print(f"radiometer table: {t}")
     st = summary.get("stats") or {}
@@ -498,6 +501,9 @@ def build_parser() -> argparse.ArgumentParser:
     bl.add_argument("--radiometers-only", action="store_true",
                     help="render the file's radiometers alone (no image), as Render > Render "
                          "Radiometers does; a file without a camera does so anyway")
+    bl.add_argument("--png", action="store_true",
+                    help="also write <file>_<frame>.png beside the EXR, as Blender displays the "
+                         "image (view transform, exposure)")
     bl.add_argument("--seed", type=int, default=None, help="random seed (default: the file's)")
     bl.add_argument("--threads", type=int, default=None, help="threads, 0 = all cores (default: the file's)")
     bl.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -48,6 +48,10 @@ class ImageResult:
     pixel_samples: np.ndarray | None = None
     converged: np.ndarray | None = None
     noise_threshold: float | None = None
+    # Denoising guides (Renderer(guides=True)): albedo (H, W, nbands) in [0, 1] and normal
+    # (H, W, 3), noise-free (photic.denoise); None otherwise.
+    albedo: np.ndarray | None = None
+    normal: np.ndarray | None = None
 
     @property
     def units(self) -> str:
@@ -479,8 +483,9 @@ class Renderer:
     def __init__(self, scene: Scene, samples: int | None = None, radiometer_samples: int | None = None,
                  seed: int | None = None, threads: int | None = None, target_error=_UNSET,
                  radiometer_targets: dict | None = None, noise_threshold=_UNSET,
-                 adaptive_min_samples: int | None = None):
+                 adaptive_min_samples: int | None = None, guides: bool = False):
         scene.validate()
+        self.guides = bool(guides)
         st = scene.settings
         self.integrator = resolve_integrator(scene)
         self.forward_cone_deg = resolve_forward_cone(scene) if self.integrator == "hybrid" else 0.0
@@ -647,6 +652,7 @@ class Renderer:
                 progress(done_work / total_work, label)
 
         cancelled = False
+        guide_maps: dict = {}  # camera -> [albedo (H, W, nb), normal (H, W, 3)]
         for gi, g in enumerate(groups):
             core = compile_scene(scene, g, seed=self.seed, hybrid=hybrid,
                                  forward_cone_deg=self.forward_cone_deg, threads=self.threads)
@@ -655,6 +661,12 @@ class Renderer:
                 core.cancel()
             if gi == 0:
                 result.warnings = scene_warnings(scene) + sensor_warnings(core, scene)
+            if self.guides:  # a few fixed rays per pixel: cheap next to one pass
+                from .denoise import guides as camera_guides
+                for ci, cam in enumerate(scene.cameras):
+                    a, nrm = camera_guides(core, ci, self.threads)
+                    al = guide_maps.setdefault(cam.name, [np.zeros(a.shape[:2] + (nb,), np.float32), nrm])
+                    al[0][:, :, g] = a
             for ri in range(len(radiometers)):
                 m = core.radiometer_medium(ri)
                 media[ri] = "air" if m < 0 else scene.water[m].name
@@ -797,6 +809,8 @@ class Renderer:
                 self._spent.add(cam.name)
             img = result.images[cam.name] = image_result(cam.name, cam_sums[cam.name], cam_done[cam.name],
                                                          in_place=True)
+            if cam.name in guide_maps:
+                img.albedo, img.normal = guide_maps[cam.name]
             if self.noise_threshold is not None and cam_done[cam.name]:
                 img.noise_threshold = self.noise_threshold
                 if img.pixel_samples is None:

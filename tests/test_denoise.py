@@ -1,0 +1,184 @@
+"""Denoising: the camera's albedo and normal guides (Scene::camera_guides), OpenImageDenoise on
+the engine's band images, and the Blender passes and option that use them."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from photic import denoise
+from photic.render import render
+from photic.scene import Scene
+
+from test_adaptive_pixels import floor_scene
+
+
+def _clear(scene, a=0.0, b=0.0):
+    d = scene.to_dict()
+    for w in d["water"]:
+        w["iops"]["absorption"] = [a] * len(d["bands"])
+        w["iops"]["scattering"][0]["b"] = [b] * len(d["bands"])
+    return Scene.from_dict(d)
+
+
+def test_guides_see_the_floor_through_the_water():
+    """Clear water: the albedo is the sand's reflectance (0.3) and the normal the floor's,
+    exactly; turbid water: between the sand's and the water's single-scattering albedo
+    (b / c), deterministic, the normal shortened by the light that reaches the floor."""
+    res = render(_clear(floor_scene(1)), samples=1, threads=1, guides=True)
+    img = res.images["floor"]
+    assert img.albedo.shape == img.mean.shape and img.normal.shape == img.mean.shape[:2] + (3,)
+    np.testing.assert_allclose(img.albedo, 0.3, rtol=1e-6)
+    np.testing.assert_allclose(img.normal, np.broadcast_to([0, 0, 1], img.normal.shape), atol=1e-6)
+    a, b = 0.1, 0.2
+    turbid = render(_clear(floor_scene(1), a, b), samples=1, threads=1, guides=True).images["floor"]
+    again = render(_clear(floor_scene(2), a, b), samples=2, threads=2, guides=True).images["floor"]
+    assert np.array_equal(turbid.albedo, again.albedo) and np.array_equal(turbid.normal, again.normal)
+    assert np.all(turbid.albedo > 0.3) and np.all(turbid.albedo < b / (a + b))
+    # The transmittance T from the normal's length; then albedo = 0.3 T + (1 - T) b / c.
+    t = turbid.normal[:, :, 2]
+    assert np.all((t > 0) & (t < 1))
+    np.testing.assert_allclose(turbid.albedo[:, :, 0], 0.3 * t + (1 - t) * b / (a + b), rtol=1e-5)
+
+
+def test_no_guides_unless_asked():
+    img = render(floor_scene(1), samples=1, threads=1).images["floor"]
+    assert img.albedo is None and img.normal is None
+
+
+@pytest.mark.skipif(not denoise.available(), reason="pyoidn (OpenImageDenoise) is a requirement")
+def test_denoising_brings_a_noisy_image_closer_to_the_converged_one():
+    """The floor at 2 spp, three bands: denoised with its guides, its RMS error against a 512
+    spp reference is well below the noisy image's (the reference's own noise removed)."""
+    sc = floor_scene(1, bands=3)
+    noisy = render(sc, samples=2, threads=2, guides=True).images["floor"]
+    ref = render(floor_scene(7, bands=3), samples=512, threads=2).images["floor"]
+    clean = denoise.denoise_bands(noisy.mean, noisy.albedo, noisy.normal)
+    assert clean.shape == noisy.mean.shape and np.isfinite(clean).all()
+    m = float(ref.mean.mean())
+    ref_noise2 = float(np.mean(ref.variance))
+
+    def err(x):
+        return math.sqrt(max(float(np.mean((x - ref.mean) ** 2)) - ref_noise2, 0.0)) / m
+
+    e_noisy, e_clean = err(noisy.mean), err(clean)
+    print(f"2 spp: noisy {100 * e_noisy:.1f} %, denoised {100 * e_clean:.1f} %")
+    assert e_clean < 0.5 * e_noisy, (e_noisy, e_clean)
+    # Bands in threes: a 4-band image is denoised as bands (0, 1, 2) and (3, 3, 3).
+    assert denoise._triples(4) == [[0, 1, 2], [3, 3, 3]]
+
+
+def test_a_missing_denoiser_is_a_clear_error(monkeypatch):
+    import builtins
+    real = builtins.__import__
+
+    def no_oidn(name, *a, **k):
+        if name == "pyoidn":
+            raise ImportError("No module named 'pyoidn'")
+        return real(name, *a, **k)
+
+    monkeypatch.setattr(builtins, "__import__", no_oidn)
+    assert not denoise.available()
+    with pytest.raises(denoise.DenoiserMissing, match="pip install pyoidn"):
+        denoise.denoise_rgb(np.zeros((4, 4, 3), np.float32))
+
+
+# ------------------------------------------------------------------------------------------
+# Blender: passes named as Cycles names them, and the Denoise option
+# ------------------------------------------------------------------------------------------
+
+import bpy  # noqa: E402  (a requirement, as in test_addon)
+from test_addon import StandInEngine, add_box, add_camera, add_sea, add_sun, empty  # noqa: E402,F401
+
+from photic_blender import final_render  # noqa: E402
+
+
+class _KeepPasses(StandInEngine):
+    def begin_result(self, x, y, w, h):
+        result = super().begin_result(x, y, w, h)
+        for name in (final_render.ALBEDO_PASS, final_render.NORMAL_PASS, final_render.NOISY_PASS):
+            result.layers[0].passes[name] = type(result.layers[0].passes["Combined"])()
+        return result
+
+    def end_result(self, result):
+        super().end_result(result)
+        self.passes = {k: p.rect for k, p in result.layers[0].passes.items()}
+
+
+def _scene(scene):
+    scene.render.resolution_x, scene.render.resolution_y = 48, 32
+    scene.photic.samples = 2
+    add_sea(depth=4.0).photic.scattering = 0.5
+    add_box("Rock", 1.0, (0, 0, -3.5))
+    add_camera((0, -5, 1), (math.radians(80), 0, 0))
+    add_sun(30)
+
+
+def test_denoising_data_passes_are_registered_and_written(empty):
+    _scene(empty)
+    names = [n for n, _, _ in final_render.render_passes(empty)]
+    assert final_render.ALBEDO_PASS not in names
+    empty.photic.denoising_data = True
+    passes = {n: (c, k) for n, c, k in final_render.render_passes(empty)}
+    assert passes[final_render.ALBEDO_PASS] == ("RGB", "COLOR")
+    assert passes[final_render.NORMAL_PASS] == ("XYZ", "VECTOR")
+    assert final_render.NOISY_PASS not in passes
+    engine = _KeepPasses(break_after_s=1e9)
+    final_render.FinalRender(engine, bpy.context.evaluated_depsgraph_get()).run()
+    albedo = np.asarray(engine.passes[final_render.ALBEDO_PASS]).reshape(-1, 3)
+    normal = np.asarray(engine.passes[final_render.NORMAL_PASS]).reshape(-1, 3)
+    assert albedo.shape == (48 * 32, 3) and albedo.min() >= 0 and albedo.max() <= 1 and albedo.max() > 0
+    assert np.abs(normal).max() <= 1.0 + 1e-6 and np.abs(normal).max() > 0
+    assert engine.passes[final_render.NOISY_PASS] is None  # not asked for: not written
+
+
+@pytest.mark.skipif(not denoise.available(), reason="pyoidn (OpenImageDenoise) is a requirement")
+def test_denoise_option_denoises_combined_and_keeps_the_noisy_image(empty):
+    _scene(empty)
+    empty.photic.denoise = True
+    engine = _KeepPasses(break_after_s=1e9)
+    summary = final_render.FinalRender(engine, bpy.context.evaluated_depsgraph_get()).run()
+    assert summary["error"] is None and summary["denoise_s"] > 0
+    combined = np.asarray(engine.passes["Combined"]).reshape(-1, 4)
+    noisy = np.asarray(engine.passes[final_render.NOISY_PASS]).reshape(-1, 3)
+    assert np.isfinite(combined).all() and not np.allclose(combined[:, :3], noisy)
+    assert np.all(combined[:, 3] == 1.0)
+    # Denoising smooths: neighbouring pixels differ less than in the noisy image.
+    img_c = combined[:, :3].reshape(32, 48, 3)
+    img_n = noisy.reshape(32, 48, 3)
+    assert np.abs(np.diff(img_c, axis=1)).mean() < np.abs(np.diff(img_n, axis=1)).mean()
+
+
+def test_denoise_without_the_denoiser_warns_and_keeps_the_image(empty, monkeypatch):
+    _scene(empty)
+    empty.photic.denoise = True
+    monkeypatch.setattr(denoise, "available", lambda: False)
+    engine = _KeepPasses(break_after_s=1e9)
+    summary = final_render.FinalRender(engine, bpy.context.evaluated_depsgraph_get()).run()
+    assert summary["error"] is None
+    assert any("pip install pyoidn" in m for _, m in engine.reports), engine.reports
+    assert engine.passes[final_render.NOISY_PASS] is None
+    assert np.asarray(engine.passes["Combined"]).reshape(-1, 4)[:, :3].mean() > 0
+
+
+@pytest.mark.skipif(not denoise.available(), reason="pyoidn (OpenImageDenoise) is a requirement")
+def test_f12_with_denoise_through_blender(empty, tmp_path):
+    """Through bpy.ops.render.render (the real render result: add_pass with the XYZ normal)
+    and a multilayer EXR with the denoising passes."""
+    _scene(empty)
+    empty.photic.denoise = True
+    settings = empty.render.image_settings
+    if hasattr(settings, "media_type"):  # Blender 5: multilayer is a media type
+        settings.media_type = "MULTI_LAYER_IMAGE"
+    settings.file_format = "OPEN_EXR_MULTILAYER"
+    settings.color_depth = "32"
+    final_render.LAST_RENDER.clear()
+    bpy.ops.render.render()
+    bpy.data.images["Render Result"].save_render(filepath=str(tmp_path / "frame.exr"), scene=empty)
+    summary = final_render.LAST_RENDER
+    assert summary["error"] is None and summary.get("denoise_s", 0) > 0
+    from test_addon import exr_channels
+    channels = exr_channels(tmp_path / "frame.exr")
+    for name in (final_render.ALBEDO_PASS, final_render.NORMAL_PASS, final_render.NOISY_PASS):
+        assert any(name in c for c in channels), (name, sorted(channels))
