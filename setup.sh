@@ -6,4 +6,4 @@ set -euo pipefail
 cd "$(dirname "$0")"
 bash scripts/install.sh
 echo "== rendering example_blends/underwater_objects.blend (bpy + the Photic add-on)"
-.venv/bin/photic blend example_blends/underwater_objects.blend --out out
+.venv/bin/photic blend example_blends/underwater_objects.blend --out out --png

@@ -69,16 +69,16 @@ def _unit_coefficients(per: str, scattering: str, b_default: float) -> dict:
     the density ("per unit density"), ``scattering`` the scattering they add."""
     return {
         "unit_absorption": FloatProperty(
-            name="Unit Absorption", default=0.1, min=0.0, soft_max=10.0, precision=4,
+            name="Unit Absorption (m⁻¹)", default=0.1, min=0.0, soft_max=10.0, precision=4,
             description=f"Absorption {per} (m^-1) in every band unless given per band"),
         "unit_absorption_bands": StringProperty(
-            name="Unit Absorption per Band",
+            name="Unit Absorption per Band (m⁻¹)",
             description=f"Absorption {per} (m^-1), one per band separated by commas"),
         "unit_scattering": FloatProperty(
-            name="Unit Scattering", default=b_default, min=0.0, soft_max=100.0, precision=4,
+            name="Unit Scattering (m⁻¹)", default=b_default, min=0.0, soft_max=100.0, precision=4,
             description=f"Scattering {per} (m^-1) in every band unless given per band"),
         "unit_scattering_bands": StringProperty(
-            name="Unit Scattering per Band",
+            name="Unit Scattering per Band (m⁻¹)",
             description=f"Scattering {per} (m^-1), one per band separated by commas"),
         "unit_phase_function": EnumProperty(
             name="Unit Phase Function", items=PHASE_FUNCTIONS, default="fournier_forand",
@@ -146,19 +146,19 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
         description="IOP model description in JSON (docs/iop-models.md), evaluated per band; "
                     "pure water is included unless \"water\": \"none\"")
     absorption: FloatProperty(
-        name="Absorption a", default=0.1, min=0.0, soft_max=10.0, precision=4,
+        name="Absorption a (m⁻¹)", default=0.1, min=0.0, soft_max=10.0, precision=4,
         description="Absorption coefficient a (m^-1), the same in every band unless "
                     "'Absorption per band' is given")
     absorption_bands: StringProperty(
-        name="Absorption per Band",
+        name="Absorption per Band (m⁻¹)",
         description="Absorption coefficients a (m^-1), one per band in the scene's band order, "
                     "separated by commas; empty: use 'Absorption a' in every band")
     scattering: FloatProperty(
-        name="Scattering b", default=0.2, min=0.0, soft_max=10.0, precision=4,
+        name="Scattering b (m⁻¹)", default=0.2, min=0.0, soft_max=10.0, precision=4,
         description="Scattering coefficient b (m^-1), the same in every band unless "
                     "'Scattering per band' is given")
     scattering_bands: StringProperty(
-        name="Scattering per Band",
+        name="Scattering per Band (m⁻¹)",
         description="Scattering coefficients b (m^-1), one per band, separated by commas; "
                     "empty: use 'Scattering b' in every band")
     phase_function: EnumProperty(name="Phase Function", items=PHASE_FUNCTIONS,
@@ -185,6 +185,10 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
                                        "shows it (regenerated when a wave setting or the frame "
                                        "changes)")],
         description="How the water surface is shaped", update=_wave_update)
+    flat_mesh: PointerProperty(
+        type=bpy.types.Mesh, name="Mesh Before Waves", options={"HIDDEN"},
+        description="The object's own mesh while a Wave Model preview stands in for it "
+                    "(given back when Surface Shape leaves Wave Model)")
     wave_spectrum: EnumProperty(
         name="Spectrum", default="pierson_moskowitz", update=_wave_update,
         items=[("pierson_moskowitz", "Pierson-Moskowitz", "Fully developed wind sea"),
@@ -198,7 +202,7 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
         update=_wave_update,
         description="Waves as 'amplitude_m:wavelength_m:direction_deg:phase_rad' separated by "
                     "commas; each must repeat a whole number of times over the patch")
-    wind_speed: FloatProperty(name="Wind Speed", default=5.0, min=0.0, max=50.0, precision=2,
+    wind_speed: FloatProperty(name="Wind Speed (m/s)", default=5.0, min=0.0, max=50.0, precision=2,
                               update=_wave_update,
                               description="Wind speed at 10 m above the sea (m/s): the wave "
                                           "spectrum's and the Cox-Munk roughness's wind")
@@ -263,10 +267,10 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
                                         "a CSV table (Text or file), with the phase function "
                                         "above (and pure water with 'Pure Water + Additions')")],
         description="Where the depth profile comes from")
-    chl_background: FloatProperty(name="Background Chl", default=0.1, min=0.0, soft_max=50.0,
+    chl_background: FloatProperty(name="Background Chl (mg m⁻³)", default=0.1, min=0.0, soft_max=50.0,
                                   precision=3, description="Chlorophyll concentration far from "
                                                            "the maximum (mg m^-3), >= 0")
-    chl_peak: FloatProperty(name="Peak Chl", default=1.0, min=0.0, soft_max=50.0, precision=3,
+    chl_peak: FloatProperty(name="Peak Chl (mg m⁻³)", default=1.0, min=0.0, soft_max=50.0, precision=3,
                             description="Chlorophyll added at the depth of the maximum "
                                         "(mg m^-3), >= 0")
     chl_peak_depth: FloatProperty(name="Depth of Peak", default=20.0, min=0.0, soft_max=200.0,
@@ -416,7 +420,7 @@ class PhoticLightProperties(bpy.types.PropertyGroup):
     """A sun lamp's irradiance per band, overriding its Strength and Color."""
 
     irradiance_bands: StringProperty(
-        name="Irradiance per Band",
+        name="Irradiance per Band (W m⁻² nm⁻¹)",
         description="Sun irradiance normal to the sun (W m^-2 per unit of the band's spectrum, "
                     "e.g. W m^-2 nm^-1), one per band in the scene's band order, separated by "
                     "commas; when given, Strength and Color are not used")
@@ -442,7 +446,7 @@ class PhoticWorldProperties(bpy.types.PropertyGroup):
                ("CARDIOIDAL", "Cardioidal", "Overcast sky, L = L0 (1 + 2 cos zenith angle)"),
                ("BLACK", "Black", "No sky light (sun only)")],
         description="Radiance of the sky over the upper hemisphere")
-    radiance: FloatProperty(name="Radiance L0", default=0.1, min=0.0, soft_max=100.0,
+    radiance: FloatProperty(name="Radiance L0 (W m⁻² sr⁻¹)", default=0.1, min=0.0, soft_max=100.0,
                             description="Sky radiance scale L0 (W m^-2 sr^-1 per unit of the "
                                         "band's spectrum)")
     color: FloatVectorProperty(name="Colour", subtype="COLOR", size=3, min=0.0, max=1.0,
@@ -522,11 +526,11 @@ class PhoticSceneProperties(bpy.types.PropertyGroup):
                ("SINGLE", "Single Band", "One band, shown as grey"),
                ("CUSTOM", "Custom", "A list of bands 'centre:width' in nm")],
         description="Spectral bands rendered (per-band values in radiometer tables)")
-    band_center_nm: FloatProperty(name="Centre", default=550.0, min=200.0, max=3000.0,
+    band_center_nm: FloatProperty(name="Centre (nm)", default=550.0, min=200.0, max=3000.0,
                                   description="Centre wavelength of the single band (nm)")
-    band_width_nm: FloatProperty(name="Width", default=10.0, min=0.001, max=1000.0,
+    band_width_nm: FloatProperty(name="Width (nm)", default=10.0, min=0.001, max=1000.0,
                                  description="Width of the single band (nm)")
-    custom_bands: StringProperty(name="Band List", default="450:20, 500:20, 550:20, 600:20",
+    custom_bands: StringProperty(name="Band List (nm)", default="450:20, 500:20, 550:20, 600:20",
                                  description="Bands as 'centre_nm:width_nm' separated by "
                                              "commas, e.g. '412:10, 443:10, 490:10'")
     forward_cone: EnumProperty(
@@ -549,6 +553,16 @@ class PhoticSceneProperties(bpy.types.PropertyGroup):
                     "(Color Management > Exposure) so that the image's average brightness shows "
                     "as mid-grey. Only the display changes: the passes, the EXR and the "
                     "radiometer tables keep their radiometric values")
+    denoise: BoolProperty(
+        name="Denoise", default=False,
+        description="After a final render, denoise the Combined pass with OpenImageDenoise, "
+                    "guided by the Denoising Albedo and Normal passes; the noisy image stays in "
+                    "the Noisy Image pass. A denoised image has no standard error and smooths "
+                    "caustics at low sample counts: keep the passes and tables for numbers")
+    denoising_data: BoolProperty(
+        name="Denoising Data", default=False,
+        description="Write the Denoising Albedo and Denoising Normal passes, for the "
+                    "compositor's Denoise node (as Cycles' Denoising Data)")
     write_tables: BoolProperty(name="Radiometer Tables", default=True,
                                description="Write radiometer values and standard errors as CSV "
                                            "and JSON next to the render output")

@@ -59,6 +59,9 @@ class PHOTIC_PT_render(PhoticPanel, bpy.types.Panel):
         sub.active = p.use_target_error
         sub.prop(p, "target_error", text="")
         layout.prop(p, "auto_exposure")
+        col = layout.column(heading="Denoising", align=True)
+        col.prop(p, "denoise")
+        col.prop(p, "denoising_data")
         col = layout.column(align=True)
         col.prop(p, "seed")
         col.prop(p, "threads")
@@ -257,18 +260,27 @@ def _draw_iops(layout, q, source: str, model: str, prefix: str) -> None:
     if getattr(q, source) == "MODEL":
         layout.prop(q, model)
         return
-    col = layout.column(align=True)
-    col.prop(q, prefix + "absorption")
-    col.prop(q, prefix + "absorption_bands")
-    col = layout.column(align=True)
-    col.prop(q, prefix + "scattering")
-    col.prop(q, prefix + "scattering_bands")
+    _value_or_bands(layout, q, prefix + "absorption", prefix + "absorption_bands")
+    _value_or_bands(layout, q, prefix + "scattering", prefix + "scattering_bands")
     layout.prop(q, prefix + "phase_function")
     phase = getattr(q, prefix + "phase_function")
     if phase == "henyey_greenstein":
         layout.prop(q, prefix + "hg_g")
     elif phase == "fournier_forand":
         layout.prop(q, prefix + "ff_backscatter")
+
+
+def _value_or_bands(layout, q, single: str, bands: str) -> None:
+    """A value for every band and its per-band list: the value greyed out while the list
+    overrides it, and the scene's band order under the list."""
+    col = layout.column(align=True)
+    row = col.row()
+    row.active = not getattr(q, bands).strip()
+    row.prop(q, single)
+    col.prop(q, bands)
+    row = col.row()
+    row.alignment = "RIGHT"
+    row.label(text=f"band order: {_band_order(bpy.context)}")
 
 
 def _draw_unit_iops(layout, q) -> None:
@@ -313,8 +325,7 @@ class PHOTIC_PT_material(PhoticPanel, bpy.types.Panel):
         p = mat.photic
         layout.prop(p, "use_override")
         if p.use_override:
-            layout.prop(p, "reflectance")
-            layout.prop(p, "reflectance_bands")
+            _value_or_bands(layout, p, "reflectance", "reflectance_bands")
         else:
             layout.label(text="Lambertian, reflectance = Principled BSDF base colour")
             node = find_node(mat, "BSDF_PRINCIPLED")
@@ -353,7 +364,7 @@ class PHOTIC_PT_light(PhoticPanel, bpy.types.Panel):
         col.active = not p.irradiance_bands.strip()  # overridden by the per-band list
         col.prop(light, "energy", text="Irradiance (W m\u207b\u00b2 nm\u207b\u00b9)")
         col.prop(light, "color")
-        layout.prop(p, "irradiance_bands", text="Per Band")
+        layout.prop(p, "irradiance_bands", text="Per Band (W m⁻² nm⁻¹)")
         row = layout.row()
         row.alignment = "RIGHT"
         row.label(text=f"band order: {_band_order(context)}")

@@ -55,10 +55,45 @@ def wave_model(photic, obj, time_s: float):
         sinusoids=parse_sinusoids(p.wave_sinusoids) if p.wave_spectrum == "sinusoids" else ())
 
 
+def restore_mesh(obj) -> None:
+    """Give an object back the mesh it had before a Wave Model preview stood in for it (the
+    preview mesh is removed when nothing else uses it)."""
+    p = obj.photic
+    own = p.flat_mesh
+    if own is None:
+        return
+    preview = obj.data
+    obj.data = own
+    own.use_fake_user = False
+    p.flat_mesh = None
+    if preview is not None and preview is not own and preview.users == 0:
+        bpy.data.meshes.remove(preview)
+
+
+def _preview_mesh(obj):
+    """The mesh that shows an object's wave patch: a mesh of its own, so that the object's
+    mesh is kept (in ``photic.flat_mesh``, with a fake user) and given back by restore_mesh."""
+    p = obj.photic
+    if p.flat_mesh is not None and obj.data is not p.flat_mesh:
+        return obj.data
+    own = obj.data
+    own.use_fake_user = True
+    p.flat_mesh = own
+    preview = bpy.data.meshes.new(f"{obj.name} Waves")
+    for m in own.materials:
+        preview.materials.append(m)
+    obj.data = preview
+    return preview
+
+
 def update_object(obj, scene=None) -> str | None:
-    """Replace the object's mesh by the wave patch of its model; returns an error or None."""
-    if obj is None or obj.type != "MESH" or obj.photic.role != "WATER_SURFACE" or \
-            obj.photic.surface_shape != "WAVES":
+    """Show the wave patch of an object's model as its mesh (a preview mesh of its own), or,
+    when its Surface Shape is no longer Wave Model, give it back its mesh; returns an error or
+    None."""
+    if obj is None or obj.type != "MESH" or obj.photic.role != "WATER_SURFACE":
+        return None
+    if obj.photic.surface_shape != "WAVES":
+        restore_mesh(obj)
         return None
     photic = load_engine()
     if photic is None:
@@ -69,7 +104,7 @@ def update_object(obj, scene=None) -> str | None:
         vertices, triangles, _ = photic.waves.surface_patch(model, 0.0)
     except (ValueError, photic.scene.SceneError) as exc:
         return str(exc)
-    mesh = obj.data
+    mesh = _preview_mesh(obj)
     mesh.clear_geometry()
     mesh.vertices.add(len(vertices))
     mesh.vertices.foreach_set("co", vertices.astype("float32").ravel())

@@ -114,6 +114,7 @@ def setup():
     scene = bpy.context.scene
     scene.render.engine = "PHOTIC"
     prefs = bpy.context.preferences
+    prefs.use_preferences_save = False  # never write preferences (not even the temporary ones)
     prefs.view.use_save_prompt = False  # quit without the "save changes?" dialog
     water = bpy.data.objects[WATER]
     for o in bpy.context.view_layer.objects:

@@ -22,7 +22,19 @@ cleanup() {
 }
 trap cleanup EXIT
 
+# Everything Blender could write for a user goes under $TMP: its config, scripts, data files
+# and resources, and HOME itself (recent files, caches); the user's own Blender folder is
+# fingerprinted before and after, and a change fails the script.
+fingerprint() {
+  local dir="${REAL_HOME}/.config/blender"
+  if [ -d "$dir" ]; then find "$dir" -type f -printf '%p %s %T@\n' | sort | sha256sum; else echo none; fi
+}
+REAL_HOME="$HOME"
+BEFORE=$(fingerprint)
+mkdir -p "$TMP/home"
+export HOME="$TMP/home" XDG_CONFIG_HOME="$TMP/home/.config" XDG_CACHE_HOME="$TMP/home/.cache"
 export BLENDER_USER_CONFIG="$TMP/config" BLENDER_USER_SCRIPTS="$TMP/scripts"
+export BLENDER_USER_DATAFILES="$TMP/datafiles" BLENDER_USER_RESOURCES="$TMP/resources"
 .venv/bin/python scripts/install_blender_addon.py --scripts "$TMP/scripts"
 
 Xvfb ":$DISPLAY_NUM" -screen 0 1600x1000x24 -nolisten tcp >"$TMP/xvfb.log" 2>&1 &
@@ -35,3 +47,8 @@ done
 DISPLAY=":$DISPLAY_NUM" LIBGL_ALWAYS_SOFTWARE=1 \
   blender --addons photic_blender -p 0 0 1600 1000 example_blends/stepped_pool.blend \
   --python scripts/screenshots.py
+
+if [ "$(fingerprint)" != "$BEFORE" ]; then
+  echo "screenshots.sh: the user's Blender configuration (${REAL_HOME}/.config/blender) changed" >&2
+  exit 1
+fi

@@ -101,7 +101,7 @@ def exr_channels(path):
                                                    ("underwater_objects", False)])
 def test_example_blends_render_through_the_addon(tmp_path, name, has_radiometers):
     summary = render_blend(BLENDS / f"{name}.blend", out_dir=tmp_path, samples=2,
-                           radiometer_samples=8192)
+                           radiometer_samples=8192, resolution_percentage=50)
     channels = exr_channels(summary["image"])
     layer = "ViewLayer."
     for p in ("Combined", *final_render.PASS_NAMES):
@@ -109,6 +109,10 @@ def test_example_blends_render_through_the_addon(tmp_path, name, has_radiometers
             assert f"{layer}{p}.{c}" in channels, sorted(channels)
     combined = np.stack([channels[f"{layer}Combined.{c}"] for c in "RGB"], -1)
     assert np.all(np.isfinite(combined)) and combined.mean() > 0
+    if f"{layer}{final_render.NOISY_PASS}.R" in channels:  # a denoised example (the showcase)
+        combined = np.stack([channels[f"{layer}{final_render.NOISY_PASS}.{c}"] for c in "RGB"], -1)
+        for p in (final_render.ALBEDO_PASS, final_render.NORMAL_PASS):
+            assert any(k.startswith(f"{layer}{p}.") for k in channels), p
     # The component passes sum to the combined image (hybrid integrator).
     parts = sum(np.stack([channels[f"{layer}{p}.{c}"] for c in "RGB"], -1)
                 for p in final_render.PASS_NAMES[:3])
@@ -695,6 +699,91 @@ def test_wave_model_surface_previews_animates_and_exports(empty):
     scene.photic.integrator, scene.photic.samples = "PATH", 1
     res = Renderer(exported, samples=1).run()
     assert np.isfinite(res.images["Camera"].mean).all() and res.images["Camera"].mean.mean() > 0
+
+
+def test_switching_wave_model_off_gives_the_object_its_mesh_back(empty):
+    """Surface Shape Flat -> Wave Model -> Flat (and Mesh Patch): the object's own mesh, its
+    vertices and its material, comes back; the preview mesh is removed; twice over."""
+    sea = add_sea()
+    mat = bpy.data.materials.new("SeaMat")
+    sea.data.materials.append(mat)
+    own = sea.data
+    before = [tuple(v.co) for v in own.vertices]
+    p = sea.photic
+    p.wave_resolution, p.wave_patch_size = 8, 20.0
+    for back in ("FLAT", "MESH"):
+        p.surface_shape = "WAVES"
+        assert sea.data is not own and len(sea.data.vertices) == 9 * 9
+        assert list(sea.data.materials) == [mat]
+        preview = sea.data.name
+        p.wave_seed += 1  # a wave setting: the preview is regenerated, the own mesh kept
+        assert sea.data.name == preview and [tuple(v.co) for v in own.vertices] == before
+        p.surface_shape = back
+        assert sea.data == own and [tuple(v.co) for v in sea.data.vertices] == before
+        assert preview not in bpy.data.meshes and not own.use_fake_user
+        assert p.flat_mesh is None
+
+
+class RecordingLayout:
+    """A stand-in UILayout that records prop() calls with the active state of their row."""
+
+    def __init__(self, log=None, active=True):
+        self.log = [] if log is None else log
+        self.active, self.enabled = active, True
+        self.use_property_split = False
+        self.alignment = "EXPAND"
+
+    def _sub(self, *a, **k):
+        return RecordingLayout(self.log, self.active)
+
+    column = row = box = split = _sub
+
+    def __setattr__(self, name, value):
+        if name == "active" and "log" in self.__dict__ and self.__dict__.get("active") is False:
+            value = False  # a sub-layout of an inactive one stays inactive
+        object.__setattr__(self, name, value)
+
+    def prop(self, data, name, **k):
+        self.log.append(("prop", name, self.active, k.get("text")))
+
+    def label(self, text="", **k):
+        self.log.append(("label", text, self.active, None))
+
+    def operator(self, *a, **k):
+        return type("Op", (), {})()
+
+
+def test_per_band_lists_grey_out_the_value_they_override_and_show_the_band_order(empty):
+    from photic_blender import ui
+    sea = add_sea()
+    q = sea.photic
+    layout = RecordingLayout()
+    ui._draw_iops(layout, q, "iop_source", "iop_model", "")
+    active = {name: act for kind, name, act, _ in layout.log if kind == "prop"}
+    assert active["absorption"] and active["scattering"]
+    assert any(kind == "label" and "band order: 620, 550, 460 nm" in text for kind, text, _, _ in layout.log)
+    q.absorption_bands = "0.1, 0.2, 0.3"
+    layout = RecordingLayout()
+    ui._draw_iops(layout, q, "iop_source", "iop_model", "")
+    active = {name: act for kind, name, act, _ in layout.log if kind == "prop"}
+    assert not active["absorption"] and active["scattering"]
+
+
+def test_physical_properties_show_their_units_in_the_ui(empty):
+    """Every property with a physical unit says it in its label (or has Blender's own unit)."""
+    from photic_blender import properties as props
+    wanted = {props.PhoticObjectProperties: {"absorption": "m\u207b\u00b9", "scattering": "m\u207b\u00b9",
+                                             "absorption_bands": "m\u207b\u00b9", "wind_speed": "m/s",
+                                             "unit_absorption": "m\u207b\u00b9", "chl_peak": "mg m\u207b\u00b3"},
+              props.PhoticSceneProperties: {"band_center_nm": "nm", "band_width_nm": "nm", "custom_bands": "nm"},
+              props.PhoticWorldProperties: {"radiance": "W m\u207b\u00b2 sr\u207b\u00b9"},
+              props.PhoticLightProperties: {"irradiance_bands": "W m\u207b\u00b2"}}
+    for cls, names in wanted.items():
+        for name, unit in names.items():
+            label = cls.bl_rna.properties[name].name
+            assert unit in label, (cls.__name__, name, label)
+    for name in ("wave_patch_size", "fetch", "wave_depth", "bottom_depth", "chl_peak_depth"):
+        assert props.PhoticObjectProperties.bl_rna.properties[name].unit == "LENGTH", name
 
 
 def test_wave_model_sinusoids_and_their_errors(empty):
