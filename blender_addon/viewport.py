@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import threading
 import traceback
+import types
 
 import numpy as np
 
@@ -47,6 +48,7 @@ class ViewportRender:
         self.texture = None
         self.texture_samples = -1  # the most samples a pixel of the texture has
         self.texture_version = -1  # the renderer's version of the sums the texture shows
+        self.final = None          # {"result": the finished render's result} of the running render
         self.bands = None
 
     def stop(self) -> None:
@@ -82,9 +84,11 @@ class ViewportRender:
             self.message = str(exc)
             return
 
+        holder = self.final = {}
+
         def work(renderer=self.renderer):
             try:
-                renderer.run()
+                holder["result"] = renderer.run()
             except Exception:
                 traceback.print_exc()
 
@@ -111,8 +115,16 @@ class ViewportRender:
         if renderer is not None:
             changed = renderer.changed_rows("viewport", self.texture_version)
             got = renderer.total_sums("viewport", rows=(0, height)) if changed is not None else None
-            if got is not None:
+            done = self.final.get("result") if self.final is not None else None
+            if got is None and done is not None and "viewport" in done.images:
+                # The render ended: its image holds the last pieces the sums no longer show.
+                img = done.images["viewport"]
+                self.final = None
+                rows = bandmod.bands_to_rgba(img.mean, self.bands)[::-1].reshape(-1, 4)
+                got, changed = types.SimpleNamespace(n=np.asarray(img.samples)), (0, height, 1 << 62)
+            elif got is not None:
                 rows = bandmod.total_to_rows(got.total, got.n, self.bands)
+            if got is not None:
                 scene = depsgraph.scene_eval
                 if scene.photic.auto_exposure:  # display only: the net exposure is the image's
                     stops = bandmod.auto_exposure(rows)
@@ -123,8 +135,9 @@ class ViewportRender:
                 self.texture_version = changed[2]
                 self.texture_samples = int(np.max(got.n))
                 engine.update_stats("", f"Photic: sample {self.texture_samples}/{renderer.samples}")
-            if self.thread is not None and self.thread.is_alive():
-                engine.tag_redraw()
+            if (self.thread is not None and self.thread.is_alive()) or \
+                    (self.final is not None and self.final.get("result") is not None):
+                engine.tag_redraw()  # (until the finished render's image is shown)
         if self.texture is not None:
             gpu.state.blend_set("ALPHA_PREMULT")
             engine.bind_display_space_shader(depsgraph.scene_eval)

@@ -326,3 +326,27 @@ def test_viewport_draws_a_first_image_within_two_seconds_and_restarts_on_edits(e
         vp.stop()
     assert vp.thread is None
     print(f"viewport: first image after {first:.2f} s")
+
+
+def test_viewport_shows_the_finished_render_with_all_its_samples(empty, monkeypatch):
+    """When the viewport's render ends, the texture is its final image (all samples), although
+    the last pieces' sums are spent by then; once shown, no more redraws are asked for."""
+    made = _stub_gpu(monkeypatch)
+    _plume_like(empty, (32, 24), 1)
+    empty.photic.viewport_samples = 8
+    empty.photic.viewport_scale = 25
+    vp = viewport.ViewportRender()
+    eng = _ViewEngine()
+    ctx = _view_context(240, 160)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    try:
+        vp.update(ctx, depsgraph)
+        vp.draw(eng, ctx, depsgraph)
+        vp.thread.join()
+        vp.draw(eng, ctx, depsgraph)
+        assert vp.texture_samples == 8 and made, vp.texture_samples
+        last = eng.redraws
+        vp.draw(eng, ctx, depsgraph)
+        assert eng.redraws == last  # nothing more to show: no more redraws
+    finally:
+        vp.stop()
