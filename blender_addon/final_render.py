@@ -125,7 +125,7 @@ class DisplayStream:
                 t0 = time.perf_counter()
                 if not self._refresh():
                     continue
-                if t0 - last_error >= self.ERROR_INTERVAL_S:
+                if t0 - last_error >= self.ERROR_INTERVAL_S or (self.error is None and self.samples >= 2):
                     snap = self.renderer.snapshot(self.camera, stride=self.ERROR_STRIDE)
                     if snap is not None:
                         self.error = image_relative_error(snap)
@@ -209,9 +209,9 @@ def image_passes(image, bands, denoise: bool = False) -> dict:
     if denoise:
         from photic.denoise import denoise_rgb
         noisy = out["Combined"]
-        out[NOISY_PASS] = noisy[:, :, :3].copy()
         clean = np.ones_like(noisy)
         clean[:, :, :3] = denoise_rgb(noisy[:, :, :3], out.get(ALBEDO_PASS), out.get(NORMAL_PASS))
+        out[NOISY_PASS] = noisy[:, :, :3].copy()
         out["Combined"] = clean
     return out
 
@@ -375,13 +375,13 @@ class FinalRender:
         props = bscene.photic
         self.denoise = bool(props.denoise)
         if self.denoise:
-            from photic.denoise import available
-            if not available():
+            from photic.denoise import unavailable_reason
+            reason = unavailable_reason()
+            if reason is not None:
                 self.denoise = False
-                engine.report({"WARNING"}, "Photic: Denoise needs OpenImageDenoise's Python binding "
-                                           "(pip install pyoidn into Blender's Python): the image is "
-                                           "left noisy; the Denoising passes still work with the "
-                                           "compositor's Denoise node")
+                engine.report({"WARNING"}, f"Photic: Denoise is off: {reason}. The image is left "
+                                           f"noisy; the Denoising passes still work with the "
+                                           f"compositor's Denoise node")
         try:
             renderer = photic.render.Renderer(scene, guides=bool(props.denoise or props.denoising_data))
         except photic.scene.SceneError as exc:
@@ -584,7 +584,16 @@ class FinalRender:
         denoised when asked."""
         layer = result.layers[0]
         t0 = time.perf_counter()
-        passes = image_passes(image, bands, denoise=final and getattr(self, "denoise", False))
+        denoise = final and getattr(self, "denoise", False)
+        try:
+            passes = image_passes(image, bands, denoise=denoise)
+        except Exception as exc:  # noqa: BLE001  (the denoiser failed: keep the render, noisy)
+            if not denoise:
+                raise
+            traceback.print_exc()
+            self.engine.report({"WARNING"}, f"Photic: denoising failed ({type(exc).__name__}: {exc}); "
+                                            f"the image is left noisy")
+            passes = image_passes(image, bands)
         if NOISY_PASS in passes:
             self.summary["denoise_s"] = time.perf_counter() - t0
         for name, pixels in passes.items():
