@@ -108,10 +108,15 @@ def target_summary(result) -> str | None:
 
 
 def cmd_render(args) -> int:
-    from .output import write_outputs
+    from .output import check_output_dir, write_outputs
     from .render import Renderer
     from .scene import SceneError, load_scene
 
+    try:
+        check_output_dir(args.out)
+    except OSError as e:
+        print(f"photic: {e}", file=sys.stderr)
+        return 2
     try:
         scene = load_scene(args.scene)
         if args.integrator:
@@ -148,7 +153,13 @@ def cmd_render(args) -> int:
             bar.set_postfix_str(msg, refresh=False)
             bar.refresh()
 
-    result = renderer.run(progress)
+    try:
+        result = renderer.run(progress)
+    except SceneError as e:  # found when the scene is built (e.g. a sensor on a boundary)
+        if bar is not None:
+            bar.close()
+        print(f"photic: invalid scene {args.scene}: {e}", file=sys.stderr)
+        return 2
     if bar is not None:
         bar.close()
     for w in result.warnings:
@@ -343,7 +354,7 @@ def cmd_blend(args) -> int:
 
 
 def cmd_batch(args) -> int:
-    from .distributed import JobError, load_job, run_job
+    from .distributed import JobError, SchedulerError, load_job, run_job
 
     try:
         job = load_job(args.job)
@@ -360,6 +371,9 @@ def cmd_batch(args) -> int:
         print("photic batch: interrupted; the finished units are kept: run the same command "
               "again to resume", file=sys.stderr)
         return 130
+    except SchedulerError as exc:  # not a Dask scheduler, no workers, a bad --workers
+        print(f"photic batch: {exc}", file=sys.stderr)
+        return 2
     except (OSError, TimeoutError) as exc:  # the scheduler did not answer, or a file failed
         what = f"cannot reach the Dask scheduler {args.scheduler} or" if args.scheduler else "cannot"
         print(f"photic batch: {what} write the results: {exc}", file=sys.stderr)

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import re
 from pathlib import Path
 
@@ -65,11 +66,52 @@ def write_exr(path, result: RenderResult, camera: str) -> Path:
         header["photic:components"] = " + ".join(comps) + " = radiance; same units as radiance"
         for c in comps:
             header[f"photic:component.{c}"] = COMPONENT_DESCRIPTIONS[c]
+    if getattr(result, "cancelled", False):
+        header["photic:cancelled"] = "1: a partial result (the passes finished before the render was stopped)"
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with OpenEXR.File(header, channels) as f:
-        f.write(str(path))
+    # Written beside and renamed: a render killed while writing leaves no truncated file under
+    # the final name (os.replace is atomic on one file system).
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with OpenEXR.File(header, channels) as f:
+            f.write(str(tmp))
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
     return path
+
+
+def check_output_dir(out_dir) -> Path:
+    """The output folder, created and tried with a file before a render starts, so that a bad
+    ``--out`` (a file, a folder under a file, read-only, a name too long) fails in a second
+    with the reason instead of after the render, losing it. OSError with a clear message."""
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise OSError(f"--out {out}: is a file, not a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / f".photic-write-test.{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise OSError(f"--out {out}: cannot write there ({exc.strerror or exc})") from None
+    return out
+
+
+def output_names(scene_name: str, cameras) -> dict[str, str]:
+    """The EXR file name of each camera, distinct: names that differ only in characters a file
+    name cannot keep ('cam€' and 'cam£' both give 'cam_') get a short hash of the name."""
+    import hashlib
+    base = {c: f"{_safe(scene_name)}_{_safe(c)}" for c in cameras}
+    clash = {b for b in base.values() if list(base.values()).count(b) > 1}
+    out = {}
+    for c, b in base.items():
+        if b in clash:
+            b += "-" + hashlib.sha1(c.encode("utf-8")).hexdigest()[:8]
+        out[c] = b[:200] + ".exr"  # (a file name has at most 255 bytes)
+    return out
 
 
 def _trusted(r, b: int, k: int) -> bool:
@@ -112,7 +154,7 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
     """Radiometer values and standard errors as CSV and JSON; returns both paths."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    stem = stem or _safe(result.scene_name)
+    stem = stem or _safe(result.scene_name)[:200]
     rows = radiometer_rows(result)
     csv_path = out_dir / f"{stem}_radiometers.csv"
     fields = ["name", "quantity", "x_m", "y_m", "z_m", "medium", "band", "center_nm", "bin",
@@ -160,11 +202,12 @@ def write_outputs(out_dir, result: RenderResult) -> dict[str, list[Path]]:
     """Every camera as EXR and the radiometer tables; returns the written paths."""
     out_dir = Path(out_dir)
     written = {"images": [], "tables": []}
+    names = output_names(result.scene_name, list(result.images))
     for cam in result.images:
-        written["images"].append(write_exr(out_dir / f"{_safe(result.scene_name)}_{_safe(cam)}.exr", result, cam))
+        written["images"].append(write_exr(out_dir / names[cam], result, cam))
     if result.radiometers:
         written["tables"].extend(write_radiometer_tables(out_dir, result))
-        derived = write_derived_table(out_dir / f"{_safe(result.scene_name)}_derived.csv", result)
+        derived = write_derived_table(out_dir / f"{_safe(result.scene_name)[:200]}_derived.csv", result)
         if derived is not None:
             written["tables"].append(derived)
     return written

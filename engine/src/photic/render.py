@@ -274,6 +274,50 @@ def radiometer_passes(samples: int, paired: bool) -> list[tuple[int, int]]:
     return passes
 
 
+MEMORY_SHARE = 0.8  # of the machine's memory a render may plan to use
+
+
+def machine_memory() -> int | None:
+    """Bytes of physical memory (None where unknown)."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def render_memory(scene: Scene) -> dict:
+    """Bytes the largest buffers of a render will take, per item: each camera's running sums
+    (components + total, squares, between-pass sums, samples: float64 per pixel and band) and
+    the pass buffers; the radiometers' per-bin sums."""
+    nb = len(scene.bands)
+    nc = len(COMPONENTS) + 1
+    out = {}
+    for c in scene.cameras:
+        px = int(c.resolution[0]) * int(c.resolution[1])
+        out[f"camera '{c.name}' ({c.resolution[0]} x {c.resolution[1]}, {nb} bands)"] = \
+            px * 8 * (nb * (2 * nc + 3) + 4)
+    bins = sum(r.polar_bins * r.azimuth_bins if r.quantity == "radiance_distribution" else 1
+               for r in scene.all_radiometers())
+    if bins:
+        out[f"radiometers ({bins:,} bins)"] = bins * 8 * nb * (4 * nc + 8)
+    return out
+
+
+def check_memory(scene: Scene) -> None:
+    """Refuse a render whose buffers would not fit the machine (SceneError naming the largest
+    item, with the estimate), before anything is allocated."""
+    total = machine_memory()
+    need = render_memory(scene)
+    if total is None or not need:
+        return
+    if sum(need.values()) > MEMORY_SHARE * total:
+        what = max(need, key=need.get)
+        raise SceneError("scene", what, f"needs about {sum(need.values()) / 2**30:.1f} GiB for its "
+                                        f"image and radiometer sums ({what}: {need[what] / 2**30:.1f} "
+                                        f"GiB) but this machine has {total / 2**30:.1f} GiB: lower "
+                                        f"the resolution, the bands or the bins")
+
+
 def uses_beams(scene: Scene, hybrid: bool) -> bool:
     """Whether a render builds beams (per pass): the hybrid integrator with a sun."""
     return hybrid and scene.sun is not None
@@ -291,6 +335,28 @@ def build_pass_beams(core, scene: Scene, seed: int, key: tuple, i: int, n: int, 
         core.build_beams(direction, threads, (f1, f2))
     else:
         core.build_beams(direction, threads)
+
+
+def check_sensors_off_boundaries(core, scene: Scene) -> None:
+    """Refuse a radiometer on the boundary between two media (a water mesh's face, the sea
+    surface): which side it measures would be decided by rounding (a tank-top sensor read
+    5.40 against 1.17 just below or above). Tested by the medium 10 micrometres (plus the
+    core's ray offset at that distance from the origin, 4e-6 of it) away along each axis: a
+    sensor a tenth of a millimetre below the surface is fine."""
+    for r in scene.all_radiometers():
+        p = np.asarray(r.position, float)
+        eps = 1e-5 + 4e-6 * float(np.max(np.abs(p)))
+        media = set()
+        for axis in range(3):
+            for sign in (-1.0, 1.0):
+                q = p.copy()
+                q[axis] += sign * eps
+                media.add(core.medium_at(tuple(map(float, q))))
+        if len(media) > 1:
+            names = sorted("air" if m < 0 else scene.water[m].name for m in media)
+            raise SceneError(f"radiometer '{r.name}'", "position",
+                             f"{p.tolist()} lies on the boundary between {' and '.join(names)} "
+                             f"(within {eps:g} m): move it into one of them")
 
 
 def sensor_warnings(core, scene: Scene) -> list[str]:
@@ -500,6 +566,9 @@ class Renderer:
                 raise SceneError("settings", what, f"must be in 1..{hi}, got {value}")
         if not 0 <= self.threads <= 1024:
             raise SceneError("settings", "threads", f"must be in 0..1024, got {self.threads}")
+        if not 0 <= self.seed <= 2**63 - 1:
+            raise SceneError("settings", "seed", f"must be in 0..{2**63 - 1} (2^63 - 1), got {self.seed}")
+        check_memory(scene)
         self.target_error = _check_target(
             "settings", "target_error", st.target_error if target_error is Renderer._UNSET else target_error)
         self.noise_threshold = _check_target(
@@ -660,6 +729,7 @@ class Renderer:
             if self._cancel.is_set():
                 core.cancel()
             if gi == 0:
+                check_sensors_off_boundaries(core, scene)
                 result.warnings = scene_warnings(scene) + sensor_warnings(core, scene)
             if self.guides:  # a few fixed rays per pixel: cheap next to one pass
                 from .denoise import guides as camera_guides

@@ -220,13 +220,31 @@ def _check_per_band(obj, fld, a, nbands, lo=0.0, hi=None) -> None:
         _check_real(obj, f"{fld}[{i}]", x, lo, hi)
 
 
-def _check_vec3(obj, fld, v, nonzero=False) -> None:
-    """Require a finite 3-vector (not zero if ``nonzero``)."""
+# Embree traces in single precision: beyond about a thousand kilometres from the origin a
+# float32 coordinate is coarser than 6 cm and rays there fail its checks (it aborted the
+# process). Positions and sizes are limited to this, in metres.
+MAX_COORDINATE_M = 1e6
+_COORD_TEXT = (f"within +-{MAX_COORDINATE_M:.0e} m of the origin (Embree traces in single "
+               f"precision; move the scene nearer the origin)")
+
+
+def _check_vec3(obj, fld, v, nonzero=False, position=False) -> None:
+    """Require a finite 3-vector (not zero if ``nonzero``; within MAX_COORDINATE_M of the
+    origin if it is a ``position``)."""
     if (not isinstance(v, np.ndarray) or v.shape != (3,) or v.dtype.kind not in "fiu"
             or not np.all(np.isfinite(v))):
         raise SceneError(obj, fld, f"must be 3 finite numbers [x, y, z], got {_show(v)}")
     if nonzero and not np.any(v):
         raise SceneError(obj, fld, "must not be the zero vector")
+    if position and np.max(np.abs(v)) > MAX_COORDINATE_M:
+        raise SceneError(obj, fld, f"must be {_COORD_TEXT}, got {_show(v)}")
+
+
+MAX_DISTRIBUTION_BINS = 1_000_000  # polar x azimuth bins of a radiance distribution
+MAX_ARRAY_RADIOMETERS = 1_000_000  # radiometers of one array
+MAX_SOURCE = 1e20  # sun irradiance and sky radiance (per band): far beyond any sun, and the
+                   # image (float32) stays finite
+MAX_HG_G = 0.9999  # |g| of Henyey-Greenstein: nearer 1 its sampling loses all precision
 
 
 def _check_name(kind: str, index: int, name: Any, seen: dict[str, str]) -> str:
@@ -912,8 +930,8 @@ def scene_warnings(s: Scene) -> list[str]:
 
 
 def _validate_band(label: str, band: Band) -> None:
-    _check_real(label, "center_nm", band.center_nm, 0, lo_open=True)
-    _check_real(label, "width_nm", band.width_nm, 0, lo_open=True)
+    _check_real(label, "center_nm", band.center_nm, 0, 1e6, lo_open=True)
+    _check_real(label, "width_nm", band.width_nm, 1e-3, 1e6)
 
 
 def _validate_material(key: Any, material: Material, nbands: int) -> None:
@@ -957,6 +975,11 @@ def _check_mesh(label: str, prefix: str, mesh: Any) -> None:
         bad = np.flatnonzero(~np.all(np.isfinite(v), axis=1))
         raise SceneError(label, f"{prefix}vertices[{bad[0]}]", f"must be finite, got "
                                                               f"{v[bad[0]].tolist()}")
+    far = np.max(np.abs(v), axis=1) > MAX_COORDINATE_M
+    if far.any():
+        bad = int(np.flatnonzero(far)[0])
+        raise SceneError(label, f"{prefix}vertices[{bad}]", f"must be {_COORD_TEXT}, got "
+                                                            f"{v[bad].tolist()}")
     if t.min() < 0 or t.max() >= len(v):
         bad = np.flatnonzero(np.any((t < 0) | (t >= len(v)), axis=1))
         raise SceneError(label, f"{prefix}triangles[{bad[0]}]",
@@ -1108,7 +1131,7 @@ def _validate_phase(label: str, prefix: str, phase: Any) -> None:
             raise SceneError(label, f"{prefix}{key}", f"required by phase function "
                                                       f"'{phase.type}'")
     if phase.type == "henyey_greenstein":
-        _check_real(label, f"{prefix}g", phase.params["g"], -1, 1, lo_open=True, hi_open=True)
+        _check_real(label, f"{prefix}g", phase.params["g"], -MAX_HG_G, MAX_HG_G)
     elif phase.type == "fournier_forand":
         _check_real(label, f"{prefix}backscatter_fraction",
                     phase.params["backscatter_fraction"], 1e-4, 0.15)
@@ -1259,7 +1282,7 @@ def _validate_water(label: str, w: WaterBody, nbands: int, materials: dict) -> N
         raise SceneError(label, "mesh", "only allowed for water of type 'mesh'")
     _validate_surface(label, w.surface)
     if w.bottom_depth is not None or w.bottom_material is not None:
-        _check_real(label, "bottom_depth", w.bottom_depth, 0, lo_open=True)
+        _check_real(label, "bottom_depth", w.bottom_depth, 0, MAX_COORDINATE_M, lo_open=True)
         _check_material_ref(label, "bottom_material", w.bottom_material, materials)
 
 
@@ -1309,7 +1332,7 @@ def _validate_surface(label: str, surface: Any) -> None:
     if not isinstance(period, tuple) or len(period) != 2:
         raise SceneError(label, "surface.period", f"must be [Lx, Ly], got {_show(period)}")
     for i, p in enumerate(period):
-        _check_real(label, f"surface.period[{i}]", p, 0, lo_open=True)
+        _check_real(label, f"surface.period[{i}]", p, 1e-3, 2 * MAX_COORDINATE_M)
     v, t = surface.mesh.vertices, surface.mesh.triangles
     # The patch tiles the plane, so its xy extent must be exactly one period.
     extent = v[:, :2].max(axis=0) - v[:, :2].min(axis=0)
@@ -1334,7 +1357,7 @@ def _validate_surface(label: str, surface: Any) -> None:
 def _validate_sun(sun: Sun, nbands: int) -> None:
     _check_real("sun", "zenith_deg", sun.zenith_deg, 0, 90, hi_open=True)
     _check_real("sun", "azimuth_deg", sun.azimuth_deg)
-    _check_per_band("sun", "irradiance", sun.irradiance, nbands)
+    _check_per_band("sun", "irradiance", sun.irradiance, nbands, 0.0, MAX_SOURCE)
     _check_real("sun", "angular_diameter_deg", sun.angular_diameter_deg, 0, 20, lo_open=True)
 
 
@@ -1346,7 +1369,7 @@ def _validate_sky(sky: Any, nbands: int) -> None:
         if sky.radiance_scale is not None:
             raise SceneError("sky", "radiance_scale", "must be None for a black sky")
         return
-    _check_per_band("sky", "radiance_scale", sky.radiance_scale, nbands)
+    _check_per_band("sky", "radiance_scale", sky.radiance_scale, nbands, 0.0, MAX_SOURCE)
     _check_real("sky", "cloud_fraction", sky.cloud_fraction, 0, 1)
     if sky.cloud_fraction and sky.type != "harrison_coombes":
         raise SceneError("sky", "cloud_fraction", "only for sky type 'harrison_coombes'")
@@ -1356,7 +1379,7 @@ def _validate_sky(sky: Any, nbands: int) -> None:
 
 def _validate_camera(label: str, c: Camera) -> None:
     _check_choice(label, "type", c.type, CAMERA_TYPES)
-    _check_vec3(label, "position", c.position)
+    _check_vec3(label, "position", c.position, position=True)
     _check_vec3(label, "direction", c.direction, nonzero=True)
     _check_vec3(label, "up", c.up, nonzero=True)
     d = c.direction / np.linalg.norm(c.direction)
@@ -1364,7 +1387,7 @@ def _validate_camera(label: str, c: Camera) -> None:
     if np.linalg.norm(np.cross(d, u)) < 1e-6:
         raise SceneError(label, "up", f"is parallel to the viewing direction {d.tolist()}")
     _check_real(label, "fov_deg", c.fov_deg, 0, 180, lo_open=True, hi_open=True)
-    _check_real(label, "ortho_width", c.ortho_width, 0, lo_open=True)
+    _check_real(label, "ortho_width", c.ortho_width, 0, 2 * MAX_COORDINATE_M, lo_open=True)
     if not isinstance(c.resolution, tuple) or len(c.resolution) != 2:
         raise SceneError(label, "resolution", f"must be [width, height], got "
                                               f"{_show(c.resolution)}")
@@ -1376,16 +1399,20 @@ def _validate_camera(label: str, c: Camera) -> None:
         raise SceneError(label, "shift", f"must be [x, y], got {_show(c.shift)}")
     for i, x in enumerate(c.shift):
         _check_real(label, f"shift[{i}]", x, -10, 10)
-    _check_real(label, "clip_start", c.clip_start, 0)
+    _check_real(label, "clip_start", c.clip_start, 0, MAX_COORDINATE_M)
 
 
 def _validate_radiometer(label: str, r: Radiometer) -> None:
     _check_choice(label, "quantity", r.quantity, QUANTITIES)
-    _check_vec3(label, "position", r.position)
+    _check_vec3(label, "position", r.position, position=True)
     _check_vec3(label, "direction", r.direction, nonzero=True)
     _check_real(label, "half_angle_deg", r.half_angle_deg, 0, 90, lo_open=True)
     _check_int(label, "polar_bins", r.polar_bins, 1, 1_000_000)
     _check_int(label, "azimuth_bins", r.azimuth_bins, 1, 1_000_000)
+    if r.quantity == "radiance_distribution" and r.polar_bins * r.azimuth_bins > MAX_DISTRIBUTION_BINS:
+        raise SceneError(label, "azimuth_bins", f"polar_bins x azimuth_bins must be at most "
+                                                f"{MAX_DISTRIBUTION_BINS:,}, got {r.polar_bins:,} x "
+                                                f"{r.azimuth_bins:,} = {r.polar_bins * r.azimuth_bins:,}")
 
 
 def _validate_radiometer_array(label: str, a: RadiometerArray) -> None:
@@ -1396,8 +1423,11 @@ def _validate_radiometer_array(label: str, a: RadiometerArray) -> None:
     p = a.positions
     if not isinstance(p, np.ndarray) or p.ndim != 2 or p.shape[1] != 3 or len(p) == 0:
         raise SceneError(label, "positions", "must be a non-empty (N, 3) array of points")
+    if len(p) > MAX_ARRAY_RADIOMETERS:
+        raise SceneError(label, "positions", f"at most {MAX_ARRAY_RADIOMETERS:,} radiometers per "
+                                             f"array, got {len(p):,}")
     for i, point in enumerate(p):
-        _check_vec3(label, f"positions[{i}]", point)
+        _check_vec3(label, f"positions[{i}]", point, position=True)
     if a.direction is not None:
         _check_vec3(label, "direction", a.direction, nonzero=True)
     if a.half_angle_deg is not None:
@@ -1595,8 +1625,19 @@ def _read_mesh(label: str, d: dict, base_dir: Path, prefix: str = "") -> Triangl
                                                      "'triangles', not both")
         vertices, triangles = _read_mesh_file(label, f"{prefix}file", base_dir / d["file"])
     elif "vertices" in d:
-        vertices = np.array(d["vertices"], dtype=np.float64).reshape(-1, 3)
-        triangles = np.array(d["triangles"], dtype=np.int64).reshape(-1, 3)
+        try:
+            vertices = np.array(d["vertices"], dtype=np.float64).reshape(-1, 3)
+        except (ValueError, TypeError, OverflowError) as exc:
+            raise SceneError(label, f"{prefix}vertices", f"must be a list of [x, y, z] numbers ({exc})") from exc
+        try:
+            triangles = np.array(d["triangles"], dtype=np.int64).reshape(-1, 3)
+        except OverflowError as exc:
+            raise SceneError(label, f"{prefix}triangles", "a vertex index is beyond 2^63 - 1: "
+                                                          "indices run from 0 to the number of "
+                                                          "vertices - 1") from exc
+        except (ValueError, TypeError) as exc:
+            raise SceneError(label, f"{prefix}triangles", f"must be a list of [i, j, k] vertex "
+                                                          f"indices ({exc})") from exc
     else:
         raise SceneError(label, f"{prefix}vertices", "a mesh needs 'vertices' and 'triangles', "
                                                      "or 'file'")
@@ -1609,8 +1650,12 @@ def _read_mesh(label: str, d: dict, base_dir: Path, prefix: str = "") -> Triangl
 def _read_mesh_file(label: str, fld: str, path: Path) -> tuple[np.ndarray, np.ndarray]:
     import trimesh  # imported here: loading trimesh is slow and only mesh files need it
 
-    if not path.is_file():
+    if path.is_dir():
+        raise SceneError(label, fld, f"is a folder, not a mesh file: {path}")
+    if not path.exists():
         raise SceneError(label, fld, f"mesh file not found: {path}")
+    if not path.is_file():
+        raise SceneError(label, fld, f"is not a regular file (a device or a pipe): {path}")
     try:
         tm = trimesh.load(str(path), force="mesh")
         vertices = np.array(tm.vertices, dtype=np.float64).reshape(-1, 3)
@@ -1727,14 +1772,19 @@ def _read_grid(label: str, d: dict, bands: list, base_dir: Path) -> IOPGrid:
         path = base_dir / d["file"]
         wanted = ["density"] + [f["key"] for f in extra if "key" in f]
         try:
-            with np.load(path) as z:
+            z = np.load(path, allow_pickle=False)
+            if not isinstance(z, np.lib.npyio.NpzFile):
+                raise SceneError(label, "iop_grid.file", f"{path} holds one array (a .npy): a .npz "
+                                                         f"with an array 'density' is needed "
+                                                         f"(numpy.savez(file, density=array))")
+            with z:
                 for i, key in enumerate(wanted):
                     if key not in z:
                         fld = "iop_grid.file" if i == 0 else f"iop_grid.fields[{i - 1}].key"
                         raise SceneError(label, fld, f"{path} has no array {key!r} "
                                                      f"(has: {', '.join(z.files) or 'none'})")
                     arrays[key] = np.asarray(z[key])
-        except (OSError, ValueError) as e:
+        except (OSError, ValueError, EOFError) as e:
             raise SceneError(label, "iop_grid.file", f"cannot read {path}: {e}") from None
         density = arrays["density"]
         file = str(path.resolve())
@@ -1934,7 +1984,10 @@ def _read_radiometer_array(label: str, d: dict) -> RadiometerArray:
         raise SceneError(label, "positions", "give exactly one of 'positions' and 'line'")
     spec = d["positions"] if "positions" in d else d["line"]
     if isinstance(spec, dict):
-        positions = np.linspace(spec["start"], spec["stop"], int(spec["count"]))
+        count = int(spec["count"])
+        if not 1 <= count <= MAX_ARRAY_RADIOMETERS:  # (before the points are made)
+            raise SceneError(label, "line.count", f"must be in 1..{MAX_ARRAY_RADIOMETERS:,}, got {count:,}")
+        positions = np.linspace(spec["start"], spec["stop"], count)
     else:
         positions = np.array(spec, dtype=np.float64)
     return RadiometerArray(
@@ -2139,11 +2192,31 @@ def load_scene(path: str | Path) -> Scene:
     except OSError as exc:
         raise SceneError("scene", str(path), f"cannot read scene file: {exc}") from exc
     try:
-        d = json.loads(text)
+        d = json.loads(text, object_pairs_hook=_no_duplicate_keys)
     except json.JSONDecodeError as exc:
         raise SceneError("scene", str(path), f"invalid JSON at line {exc.lineno} column "
                                              f"{exc.colno}: {exc.msg}") from exc
+    except _DuplicateKey as exc:
+        raise SceneError("scene", str(path), f"the key {exc.args[0]!r} appears twice in one "
+                                             f"object (which value is meant?)") from exc
+    except RecursionError as exc:
+        raise SceneError("scene", str(path), "JSON nested too deeply (a scene needs a few "
+                                             "levels)") from exc
     return Scene.from_dict(d, base_dir=path.resolve().parent)
+
+
+class _DuplicateKey(ValueError):
+    pass
+
+
+def _no_duplicate_keys(pairs: list) -> dict:
+    """A JSON object as a dict, refusing a key given twice (json keeps the last silently)."""
+    out = {}
+    for key, value in pairs:
+        if key in out:
+            raise _DuplicateKey(key)
+        out[key] = value
+    return out
 
 
 def save_scene(scene: Scene, path: str | Path) -> None:

@@ -159,7 +159,8 @@ class WaveModel:
                                                          f"{_show(value)}")
             for i, x in enumerate(value):
                 if lo is None:
-                    _check_real(obj, f"{prefix}{name}[{i}]", x, 0, lo_open=True)
+                    from .scene import MAX_COORDINATE_M
+                    _check_real(obj, f"{prefix}{name}[{i}]", x, 1e-3, 2 * MAX_COORDINATE_M)
                 else:
                     _check_int(obj, f"{prefix}{name}[{i}]", x, lo, hi)
         _check_int(obj, f"{prefix}seed", self.seed, 0, _MAX_SEED)

@@ -8,9 +8,9 @@ job (``job``: the job file) on a ``dask.distributed`` cluster (local by default)
 process. Command line: ``photic batch JOB``; documentation: docs/distributed.md.
 """
 from .job import Item, Job, JobError, load_job, parse_job, scene_job
-from .runner import BatchReport, BatchStopped, run_job
+from .runner import BatchReport, BatchStopped, SchedulerError, check_scheduler_address, run_job
 from .units import CameraPreview, ItemMerger, Unit, compute_unit, merge_order, plan_round
 
 __all__ = ["Item", "Job", "JobError", "load_job", "parse_job", "scene_job", "BatchReport",
-           "BatchStopped", "run_job", "CameraPreview", "ItemMerger", "Unit", "compute_unit",
+           "BatchStopped", "SchedulerError", "check_scheduler_address", "run_job", "CameraPreview", "ItemMerger", "Unit", "compute_unit",
            "merge_order", "plan_round"]

@@ -146,6 +146,90 @@ class DaskExecutor:
         self.payloads.clear()
 
 
+class SchedulerError(ValueError):
+    """A scheduler address that is no Dask scheduler, or one without workers."""
+
+
+_SCHEMES = ("tcp", "tls", "ucx", "inproc")
+
+
+def check_scheduler_address(address: str) -> tuple[str, str, int]:
+    """(scheme, host, port) of a Dask scheduler address such as ``tcp://10.0.0.5:8786`` (or
+    ``10.0.0.5:8786``); SchedulerError saying what is wrong (an http:// address is the
+    dashboard, a web page, not the scheduler)."""
+    text = str(address).strip()
+    scheme, sep, rest = text.partition("://")
+    if not sep:
+        scheme, rest = "tcp", text
+    scheme = scheme.lower()
+    if scheme in ("http", "https"):
+        raise SchedulerError(f"{address!r} is a web address (the Dask dashboard?): the scheduler "
+                             f"listens on tcp://HOST:8786 by default")
+    if scheme not in _SCHEMES:
+        raise SchedulerError(f"{address!r}: unknown scheme {scheme!r}; expected tcp://HOST:PORT "
+                             f"(or {', '.join(s + '://' for s in _SCHEMES[1:])})")
+    host, colon, port = rest.rpartition(":")
+    if not colon or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise SchedulerError(f"{address!r}: expected tcp://HOST:PORT, e.g. tcp://10.0.0.5:8786")
+    return scheme, host.strip("[]"), int(port)
+
+
+def connect_scheduler(address: str, timeout_s: float):
+    """A ``distributed.Client`` of the Dask scheduler at ``address``, or SchedulerError saying
+    why not, within about ``timeout_s``: a refused or silent port, or a peer that does not
+    speak Dask's protocol (a web server's 'HTTP/1.1 400' read as Dask's frame lengths asked
+    for exabytes; a silent one hung the connection beyond Dask's own timeout)."""
+    import socket
+    import threading
+    from distributed import Client
+    scheme, host, port = check_scheduler_address(address)
+    if scheme == "tcp":
+        try:
+            socket.create_connection((host, port), timeout=timeout_s).close()
+        except (socket.timeout, TimeoutError):
+            raise SchedulerError(f"{address}: no answer within {timeout_s:g} s") from None
+        except OSError as exc:
+            raise SchedulerError(f"{address}: cannot connect ({exc.strerror or exc})") from None
+    box: dict = {}
+
+    def connect():
+        try:
+            box["client"] = Client(address, timeout=timeout_s)
+        except BaseException as exc:  # noqa: BLE001  (MemoryError included: reported below)
+            box["error"] = exc
+
+    t = threading.Thread(target=connect, name="photic-dask-connect", daemon=True)
+    t.start()
+    t.join(timeout_s + 5.0)
+    if t.is_alive():
+        raise SchedulerError(f"{address} accepted the connection but did not complete Dask's "
+                             f"handshake within {timeout_s + 5:g} s: is it a Dask scheduler?")
+    if "error" in box:
+        exc = box["error"]
+        if isinstance(exc, (MemoryError, OverflowError, ValueError, TypeError)):
+            raise SchedulerError(f"{address} does not speak Dask's protocol (is it another server, "
+                                 f"e.g. a web server or the dashboard?)") from None
+        if isinstance(exc, (OSError, TimeoutError)):
+            raise SchedulerError(f"{address}: {type(exc).__name__}: {exc}") from None
+        raise exc
+    return box["client"]
+
+
+def wait_for_workers(client, address: str, timeout_s: float, say=None) -> None:
+    """A scheduler without workers would take the units and never run them: wait up to
+    ``timeout_s`` for one, saying so, then SchedulerError."""
+    if client.scheduler_info().get("workers"):
+        return
+    if say is not None:
+        say(f"the Dask scheduler {address} has no workers: waiting up to {timeout_s:g} s for one "
+            f"(start them with: dask worker {address} --nthreads 1)")
+    try:
+        client.wait_for_workers(1, timeout=timeout_s)
+    except (TimeoutError, OSError) as exc:
+        raise SchedulerError(f"the Dask scheduler {address} has no workers (waited {timeout_s:g} s): "
+                             f"start them with: dask worker {address} --nthreads 1") from exc
+
+
 def _local_cluster(workers: int):
     from distributed import Client, LocalCluster
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
@@ -198,10 +282,17 @@ def run_job(job: Job, out=None, *, scheduler: str | None = None, workers: int | 
         shutil.rmtree(store.root)
     threads = threads if threads is not None else job.threads or None
     owned = []  # client / cluster this call started, closed at the end
+    if workers is not None and workers < 0:
+        raise SchedulerError(f"workers must be 0 (no Dask) or more, got {workers}")
     if client is None and scheduler is not None:
-        from distributed import Client
-        client = Client(scheduler, timeout=connect_timeout_s)
+        client = connect_scheduler(scheduler, connect_timeout_s)
         owned.append(client)
+        try:
+            wait_for_workers(client, scheduler, max(connect_timeout_s, 30.0),
+                             say=lambda m: print(f"photic batch: {m}", file=sys.stderr))
+        except SchedulerError:
+            client.close()
+            raise
     if client is None and workers != 0:
         n = workers or os.cpu_count() or 1
         client, cluster = _local_cluster(n)
