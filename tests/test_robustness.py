@@ -317,3 +317,36 @@ def test_negative_workers_are_refused(tmp_path, capsys):
     job.write_text(json.dumps({"photic_job": 1, "name": "j", "inputs": [str(scene)]}))
     assert main(["batch", str(job), "--workers", "-1", "--quiet", "--out", str(tmp_path / "o")]) == 2
     assert "workers must be 0" in capsys.readouterr().err
+
+
+# ---- cost that follows the band -----------------------------------------------------------
+
+def test_a_band_of_huge_scattering_does_not_slow_the_others(zscore):
+    """b = [1e5, 0.1]: the bands render in separate groups, so the clear band costs what it
+    costs alone (it took 45 s for 512 samples when its paths followed the turbid band's
+    majorant) and gives the same value as a render of that band alone (z-score)."""
+    import time
+    from photic.compile import band_groups, scene_band_groups
+    d = small(cameras=[])
+    d["water"][0]["iops"] = {"absorption": [0.1, 0.1], "b": [1e5, 0.1], "phase": {"type": "isotropic"}}
+    d["radiometers"] = [{"name": "Ed", "quantity": "Ed", "position": [0, 0, -1]}]
+    d.pop("radiometer_arrays")
+    sc = Scene.from_dict(d)
+    assert scene_band_groups(sc) == [slice(0, 1), slice(1, 2)]
+    t0 = time.perf_counter()
+    both = render(sc, radiometer_samples=4096, threads=2)
+    t_both = time.perf_counter() - t0
+    one = dict(d, bands=[d["bands"][1]])
+    one["water"] = [dict(d["water"][0], iops={"absorption": [0.1], "b": [0.1], "phase": {"type": "isotropic"}})]
+    one["materials"] = {k: dict(m, reflectance=[m["reflectance"][1]] if isinstance(m["reflectance"], list)
+                                else m["reflectance"]) for k, m in d["materials"].items()}
+    one["sun"] = dict(d["sun"], irradiance=[d["sun"]["irradiance"][1]])
+    one["sky"] = dict(d["sky"], irradiance=[d["sky"]["irradiance"][1]])
+    alone = render(Scene.from_dict(one), radiometer_samples=4096, threads=2, seed=99)
+    a, b = both.radiometers[0], alone.radiometers[0]
+    z = zscore("clear band beside a 1e5 band vs alone", a.mean[0, 1], b.mean[0, 0],
+               float(np.hypot(a.stderr[0, 1], b.stderr[0, 0])))
+    assert abs(z) < 4
+    assert t_both < 30, t_both
+    # Ordinary scenes keep their groups (and so their numbers).
+    assert scene_band_groups(Scene.from_dict(small())) == band_groups(2)

@@ -44,10 +44,10 @@ def radiometer_table(result) -> str:
 def _write_beam_mesh(scene, path, threads) -> int:
     """--beam-mesh: build the beams once for the sun's central direction and write their
     footprints. Returns an exit status (1 with a message when there is nothing to write)."""
-    from .compile import band_groups, compile_scene
+    from .compile import compile_scene, scene_band_groups
     from .footprints import write_footprints
 
-    group = band_groups(len(scene.bands))[0]
+    group = scene_band_groups(scene)[0]
     core = compile_scene(scene, group, hybrid=True, forward_cone_deg=0)
     core.build_beams(tuple(float(c) for c in scene.sun.direction), int(threads or 0))
     if core.beam_count == 0:
@@ -139,8 +139,15 @@ def cmd_render(args) -> int:
         print(f"photic: --beam-mesh: scene {scene.name} has no sun, so no beams", file=sys.stderr)
         return 2
 
-    # Ctrl-C cancels cleanly: completed passes are still written.
-    signal.signal(signal.SIGINT, lambda *_: renderer.cancel())
+    # Ctrl-C cancels cleanly: the render stops within a piece of a pass (a few tens of ms) and
+    # what is done is written; a second Ctrl-C interrupts at once (the writing too).
+    def on_sigint(*_):
+        renderer.cancel()
+        print("\nphotic: stopping; writing the partial result (Ctrl-C again to abort)",
+              file=sys.stderr, flush=True)
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+    signal.signal(signal.SIGINT, on_sigint)
     bar = None
     if not args.quiet:
         from tqdm import tqdm

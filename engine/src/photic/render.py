@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .compile import band_groups, compile_scene
+from .compile import compile_scene, scene_band_groups
 from .estimates import (CameraSums, RadiometerSums, bin_counts, combine_round_sums,
                         image_variance, mean_stderr)
 from .scene import IOPGrid, IOPProfile, Scene, SceneError, scene_warnings
@@ -666,7 +666,7 @@ class Renderer:
         radiometers = scene.all_radiometers()
         nb = len(scene.bands)
         nc = len(COMPONENTS) + 1  # the core's layout: total, then the components
-        groups = band_groups(nb)
+        groups = scene_band_groups(scene)
         threads = self.threads or (os.cpu_count() or 1)
         hybrid = self.integrator == "hybrid"
         beams = uses_beams(scene, hybrid)

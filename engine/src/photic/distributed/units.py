@@ -29,7 +29,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..compile import band_groups, compile_scene
+from ..compile import compile_scene, scene_band_groups
 from ..estimates import CameraSums, RadiometerSums
 from ..render import (COMPONENTS, ImageResult, RenderResult, _mean_stderr, build_pass_beams,
                       camera_passes, flag_exact_mode_below_waves, image_result, radiometer_passes,
@@ -74,7 +74,7 @@ def plan_round(item: Item, job: Job, rnd: int) -> list[Unit]:
     units = []
     scene = item.scene
     hybrid = item.integrator == "hybrid"
-    ngroups = len(band_groups(len(scene.bands)))
+    ngroups = len(scene_band_groups(scene))
     rad_np = len(radiometer_passes(item.radiometer_samples, uses_beams(scene, hybrid)))
     cam_np = len(camera_passes(item.samples))
     for g in range(ngroups):
@@ -146,7 +146,7 @@ def _take_core(spec: dict, scene):
     with _CORES_LOCK:
         core = _CORES.pop(key, None)
     if core is None:
-        g = band_groups(len(scene.bands))[spec["group"]]
+        g = scene_band_groups(scene)[spec["group"]]
         target, seed = scene, spec["seed"]
         if tiled:
             target, seed = _tile_scene(scene, spec["sensor"], spec["rect"], seed, spec["tile"])
@@ -233,7 +233,7 @@ class ItemMerger:
     def __init__(self, item: Item):
         self.item = item
         scene = item.scene
-        self.groups = band_groups(len(scene.bands))
+        self.groups = scene_band_groups(scene)
         nb = len(scene.bands)
         self.nb = nb
         beams = uses_beams(scene, item.integrator == "hybrid")
@@ -315,7 +315,7 @@ class CameraPreview:
     def __init__(self, item: Item, job: Job, camera: int = 0):
         cam = item.scene.cameras[camera]
         self.name, self.camera, self.job = cam.name, camera, job
-        self.groups = band_groups(len(item.scene.bands))
+        self.groups = scene_band_groups(item.scene)
         shape = (cam.resolution[1], cam.resolution[0], NC, len(item.scene.bands))
         self.s, self.s2 = np.zeros(shape), np.zeros(shape)
         self.n = np.zeros(shape[:2] + (1, shape[3]))
