@@ -180,6 +180,25 @@ class DisplayStream:
             self._thread.join()
 
 
+def remote_scheduler_refusal(address: str, allowed: bool) -> str | None:
+    """Why a render must not go to the Dask scheduler at ``address``, or None: an address
+    that is not one, or a plain tcp:// scheduler on another machine without the user's
+    consent (Allow Unencrypted Remote Scheduler): a Dask scheduler runs the code its clients
+    send, unauthenticated."""
+    from photic.distributed import SchedulerError, check_scheduler_address
+    try:
+        scheme, host, _ = check_scheduler_address(address)
+    except SchedulerError as exc:
+        return f"Render > Photic > Dask Scheduler: {exc}"
+    local = host in ("localhost", "::1") or host.startswith("127.")
+    if scheme == "tcp" and not local and not allowed:
+        return (f"Render > Photic > Dask Scheduler: {address} is another machine over plain tcp:// "
+                f"(unencrypted, unauthenticated: whoever reaches that scheduler runs code on its "
+                f"workers). Use tls://, an SSH tunnel to 127.0.0.1, or tick 'Allow Unencrypted "
+                f"Remote Scheduler' if you trust that network")
+    return None
+
+
 def render_passes(scene) -> list[tuple[str, str, str]]:
     """(name, channels, type) of the passes a render of ``scene`` writes: Combined, the
     components and variance, and with Denoise or Denoising Data the denoising passes (named as
@@ -451,6 +470,10 @@ class FinalRender:
         the exact merge, the same numbers as a render on this computer."""
         from photic.distributed import BatchStopped, CameraPreview, run_job, scene_job
         from photic.distributed.units import plan_round
+        refusal = remote_scheduler_refusal(address, bool(getattr(bscene.photic, "dask_allow_remote", False)))
+        if refusal is not None:
+            self.fail(refusal)
+            return
 
         width, height = camera.resolution if camera else (1, 1)
         if scene.settings.noise_threshold is not None:

@@ -517,6 +517,12 @@ class PhoticSceneProperties(bpy.types.PropertyGroup):
                     "render final renders and animations as work units, streamed back into the "
                     "render view; the same numbers bit for bit as rendering here. Empty: "
                     "render on this computer")
+    dask_allow_remote: BoolProperty(
+        name="Allow Unencrypted Remote Scheduler", default=False,
+        description="Send renders to a scheduler on another machine over plain tcp:// (no "
+                    "encryption, no authentication: whoever reaches that scheduler runs code on "
+                    "its workers). Off: only a scheduler on this machine (or reached through an "
+                    "SSH tunnel to 127.0.0.1) or a tls:// address is used")
     max_depth: IntProperty(name="Max Depth", default=256, min=1, max=100000,
                            description="Largest number of scattering or reflection events of "
                                        "a path")

@@ -67,6 +67,8 @@ class PHOTIC_PT_render(PhoticPanel, bpy.types.Panel):
         col.prop(p, "threads")
         col.prop(p, "max_depth")
         layout.prop(p, "dask_scheduler")
+        if p.dask_scheduler.strip():
+            layout.prop(p, "dask_allow_remote")
 
 
 class PHOTIC_PT_bands(PhoticPanel, bpy.types.Panel):

@@ -121,6 +121,20 @@ def test_render_on_a_dask_scheduler_streams_and_equals_a_local_render(tmp_path, 
     summary = final_render.FinalRender(engine, bpy.context.evaluated_depsgraph_get()).run()
     assert summary["error"] and "Dask scheduler" in summary["error"]
 
+    # Another machine over plain tcp:// only with the user's consent; tls:// and a tunnel
+    # to 127.0.0.1 need none; a web address is refused at once.
+    refusal = final_render.remote_scheduler_refusal
+    assert "Allow Unencrypted Remote Scheduler" in refusal("tcp://10.0.0.5:8786", False)
+    assert refusal("tcp://10.0.0.5:8786", True) is None
+    assert refusal("tls://10.0.0.5:8786", False) is None
+    assert refusal("tcp://127.0.0.1:8786", False) is None and refusal("localhost:8786", False) is None
+    assert "web address" in refusal("http://127.0.0.1:8787", False)
+    scene.photic.dask_scheduler = "tcp://10.0.0.5:8786"
+    scene.update_tag()
+    engine = Engine()
+    summary = final_render.FinalRender(engine, bpy.context.evaluated_depsgraph_get()).run()
+    assert "Allow Unencrypted Remote Scheduler" in summary["error"]
+
 
 def test_job_with_blend_frames_exports_each_frame_as_f12_would(tmp_path):
     """A .blend input of a job: each frame exported through the render engine (here in this

@@ -350,3 +350,21 @@ def test_a_band_of_huge_scattering_does_not_slow_the_others(zscore):
     assert t_both < 30, t_both
     # Ordinary scenes keep their groups (and so their numbers).
     assert scene_band_groups(Scene.from_dict(small())) == band_groups(2)
+
+
+def test_a_wave_patch_too_large_for_the_machine_is_refused_at_once():
+    """waves resolution [4096, 4096] ran 300 s without a word: its 33.5 M triangles and their
+    beams need more than this machine has (the estimate says so before anything is built)."""
+    import time
+    d = small()
+    d["settings"]["integrator"] = "hybrid"
+    d["water"][0]["surface"] = {"kind": "waves", "spectrum": "pierson_moskowitz", "wind_speed": 5,
+                                "patch_size_m": [50, 50], "resolution": [4096, 4096]}
+    sc = Scene.from_dict(d)
+    need = render_memory(sc)
+    key = next(k for k in need if "wave patch" in k)
+    assert "33,554,432 triangles" in key and need[key] > 30 * 2**30
+    t0 = time.perf_counter()
+    with pytest.raises(SceneError, match="wave patch"):
+        Renderer(sc)
+    assert time.perf_counter() - t0 < 5

@@ -288,7 +288,8 @@ def machine_memory() -> int | None:
 def render_memory(scene: Scene) -> dict:
     """Bytes the largest buffers of a render will take, per item: each camera's running sums
     (components + total, squares, between-pass sums, samples: float64 per pixel and band) and
-    the pass buffers; the radiometers' per-bin sums."""
+    the pass buffers; a generated wave patch's triangles (about 1 KiB each with beams: the
+    prisms, their grid and Embree's BVH; 200 bytes without); the radiometers' per-bin sums."""
     nb = len(scene.bands)
     nc = len(COMPONENTS) + 1
     out = {}
@@ -296,6 +297,13 @@ def render_memory(scene: Scene) -> dict:
         px = int(c.resolution[0]) * int(c.resolution[1])
         out[f"camera '{c.name}' ({c.resolution[0]} x {c.resolution[1]}, {nb} bands)"] = \
             px * 8 * (nb * (2 * nc + 3) + 4)
+    beams = resolve_integrator(scene) == "hybrid" and scene.sun is not None
+    for w in scene.water:
+        waves = getattr(getattr(w, "surface", None), "waves", None)
+        if waves is not None:  # the generated patch: its mesh, BVH and (hybrid) beam prisms
+            tris = 2 * int(waves.resolution[0]) * int(waves.resolution[1])
+            out[f"water '{w.name}' wave patch ({waves.resolution[0]} x {waves.resolution[1]}: "
+                f"{tris:,} triangles)"] = tris * (1024 if beams else 200)
     bins = sum(r.polar_bins * r.azimuth_bins if r.quantity == "radiance_distribution" else 1
                for r in scene.all_radiometers())
     if bins:
@@ -312,10 +320,10 @@ def check_memory(scene: Scene) -> None:
         return
     if sum(need.values()) > MEMORY_SHARE * total:
         what = max(need, key=need.get)
-        raise SceneError("scene", what, f"needs about {sum(need.values()) / 2**30:.1f} GiB for its "
-                                        f"image and radiometer sums ({what}: {need[what] / 2**30:.1f} "
-                                        f"GiB) but this machine has {total / 2**30:.1f} GiB: lower "
-                                        f"the resolution, the bands or the bins")
+        raise SceneError(what, "memory", f"the render needs about {sum(need.values()) / 2**30:.1f} GiB "
+                                         f"({need[what] / 2**30:.1f} GiB for this) but this machine has "
+                                         f"{total / 2**30:.1f} GiB: lower the resolution, the bands or "
+                                         f"the bins")
 
 
 def uses_beams(scene: Scene, hybrid: bool) -> bool:

@@ -1314,10 +1314,11 @@ def _validate_surface(label: str, surface: Any) -> None:
             raise SceneError(label, "surface.waves", f"a photic.waves.WaveModel is required, "
                                                      f"got {_show(surface.waves)}")
         surface.waves.validate(label, "surface.")
-        try:
-            surface.patch()
-        except SurfaceFoldsError as exc:
-            raise SceneError(label, "surface.choppiness", str(exc)) from None
+        if surface.waves.choppiness > 0:  # only a choppy surface can fold over: generated now
+            try:                          # (22 s at 4096 x 4096; a render builds it anyway)
+                surface.patch()
+            except SurfaceFoldsError as exc:
+                raise SceneError(label, "surface.choppiness", str(exc)) from None
         return
     if surface.kind == "flat":
         return
