@@ -437,7 +437,7 @@ class FinalRender:
             # Esc: the render view keeps the streamed image (the Combined pass; the others are
             # written by a render that finishes), brought up to the last piece of a pass, and
             # the engine skips assembling images nobody will see (a second at 1920 x 1080).
-            self._poll(work, "photic-render", lambda: renderer.cancel(images=False), tick, final_image,
+            self._poll(work, "photic-render", lambda: renderer.cancel(images=display is None), tick, final_image,
                        (width, height), bands, cancelled_rows=display.finish if display is not None else None)
         finally:
             if display is not None:
