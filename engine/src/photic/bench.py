@@ -399,7 +399,7 @@ ERROR_TARGET = 0.05
 # (label, integrator, forward_cone_deg)
 ERROR_METHODS = (("path", "path", 0.0), ("hybrid cone 0", "hybrid", 0.0), ("hybrid auto", "hybrid", "auto"))
 METHOD_COLORS = {"path": (215, 50, 40), "hybrid cone 0": (40, 90, 215), "hybrid auto": (30, 150, 60)}
-DEFAULT_ERROR_PLOT = Path(__file__).resolve().parents[3] / "docs" / "images" / "bench_error.png"
+DEFAULT_ERROR_PLOT = Path("docs") / "images" / "bench_error.png"
 
 
 @dataclass
@@ -683,7 +683,7 @@ def run_error_bench(quick: bool = False, threads: int = 2, plot: str | Path | No
 # ----------------------------------------------------------------------------------------
 
 SPEED_CASES = ("problem2", "pool", "pool256", "waves", "cycles")
-DEFAULT_SIDE_BY_SIDE = Path(__file__).resolve().parents[3] / "docs" / "images" / "bench_pool_photic_cycles.png"
+DEFAULT_SIDE_BY_SIDE = Path("docs") / "images" / "bench_pool_photic_cycles.png"
 
 
 def wave_patch_radiometers(surface: str, samples: int = 2000) -> Scene:

@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 DEFAULT_SIZES = (10_000, 100_000, 1_000_000, 10_000_000)
-DEFAULT_PLOT = Path(__file__).resolve().parents[3] / "docs" / "images" / "large_scenes.png"
+DEFAULT_PLOT = Path("docs") / "images" / "large_scenes.png"
 DEFAULT_JSON = DEFAULT_PLOT.with_suffix(".json")
 SEABED_HALF = 20.0      # m: the seabed covers [-20, 20]^2
 SEABED_Z = -10.0        # m: its mean height

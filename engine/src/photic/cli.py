@@ -227,14 +227,14 @@ def cmd_problems(args) -> int:
     from .scene import Scene, load_scene
 
     refs = reference_table()
-    folder = Path(args.scenes)
     records = []
     for problem, omega0 in CONFIGS:
         if args.problem and problem not in args.problem:
             continue
-        path = folder / f"mobley1993_problem{problem}_omega{omega0:g}.json"
-        # The repository's scene files; an installed package without them builds the same scenes.
-        scene = load_scene(path) if path.exists() else Scene.from_dict(problem_scene(problem, omega0))
+        # The problems' definitions (examples/problems holds the same scenes as files, tested
+        # equal); --scenes: files of that name in a folder instead.
+        path = None if args.scenes is None else Path(args.scenes) / f"mobley1993_problem{problem}_omega{omega0:g}.json"
+        scene = load_scene(path) if path is not None else Scene.from_dict(problem_scene(problem, omega0))
         cone = None if args.forward_cone is None else (args.forward_cone if args.forward_cone == "auto" else float(args.forward_cone))
         records += run_problem(scene, problem, omega0, refs, samples=args.samples, threads=args.threads,
                                forward_cone_deg=cone, adaptive=not args.fixed)
@@ -457,12 +457,14 @@ def build_parser() -> argparse.ArgumentParser:
     r.set_defaults(func=cmd_render)
     pr = sub.add_parser("problems", help="canonical problems 1 and 2 of Mobley et al. 1993",
                         description="Runs canonical problems 1 and 2 of Mobley et al. (1993) from the "
-                                    "scene files in examples/problems and compares Ed, Eou and Lu at "
+                                    "scenes (those of examples/problems) and compares Ed, Eou and Lu at "
                                     "optical depths 1, 5, 10 with the published model mean and CV: "
                                     "ours +- standard error, reference, CV, time, and pass/fail "
                                     "(|ours - ref| <= (2 CV + 0.005) ref + 3 SE). Exit status 1 if any fails.")
-    pr.add_argument("--scenes", default=str(Path(__file__).resolve().parents[3] / "examples" / "problems"),
-                    help="folder with the problems' scene files (default: the repository's examples/problems)")
+    pr.add_argument("--scenes", default=None,
+                    help="folder with the problems' scene files mobley1993_problem<N>_omega<W>.json "
+                         "(default: the problems' definitions, photic.problems.problem_scene, the "
+                         "same scenes as the repository's examples/problems)")
     pr.add_argument("--problem", type=int, nargs="+", choices=[1, 2], help="only these problems")
     pr.add_argument("--samples", type=int, default=None,
                     help="samples per radiometer, the most one takes (default: the files')")

@@ -194,7 +194,7 @@ def directional_albedo(iface, wi, mode: str = "importance", n_theta: int = 45, n
 
 # --- The reflectance plot ---------------------------------------------------------------------
 
-DEFAULT_PLOT = Path(__file__).resolve().parents[3] / "docs" / "images" / "rough_interface_reflectance.png"
+DEFAULT_PLOT = Path("docs") / "images" / "rough_interface_reflectance.png"
 WIND_COLORS = {2.0: (40, 110, 200), 7.0: (30, 150, 60), 15.0: (200, 60, 40)}
 
 
