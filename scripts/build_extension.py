@@ -46,8 +46,8 @@ ENGINE = ROOT / "engine"
 DEPENDENCIES = ["embreex", "trimesh", "OpenEXR", "jsonschema", "attrs", "referencing",
                 "rpds-py", "jsonschema-specifications", "typing-extensions"]
 PLATFORMS = ["manylinux2014_x86_64"] + [f"manylinux_2_{m}_x86_64" for m in range(17, 29)]
-EXCLUDE_DIRS = {"__pycache__"}
-EXCLUDE_FILES = {"README.md", "site_packages.txt"}
+EXCLUDE_DIRS = {"__pycache__", "photic_blender.egg-info"}
+EXCLUDE_FILES = {"README.md", "site_packages.txt", "pyproject.toml"}  # (the pip package's file)
 
 
 def _pip(*args: str) -> None:

@@ -29,4 +29,6 @@ echo "== installing Python dependencies (bpy is large: this takes a few minutes 
 .venv/bin/python -m pip install -q -r requirements.txt
 echo "== building and installing the engine (C++ core) from source"
 .venv/bin/python -m pip install -q -e ./engine
+echo "== installing the Blender add-on as a package (photic_blender: photic-blend, .blend job inputs)"
+.venv/bin/python -m pip install -q -e ./blender_addon
 .venv/bin/python -c "import photic._core, photic; print('photic', photic.__version__, 'installed')"

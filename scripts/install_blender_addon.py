@@ -88,7 +88,7 @@ def install(dest: Path, link: bool) -> Path:
         dest.symlink_to(SOURCE, target_is_directory=True)
         print(f"linked {dest} -> {SOURCE}")
         return SOURCE
-    shutil.copytree(SOURCE, dest, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", LISTING))
+    shutil.copytree(SOURCE, dest, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.egg-info", "pyproject.toml", LISTING))
     print(f"copied {SOURCE} to {dest}")
     return dest
 

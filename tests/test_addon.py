@@ -1140,3 +1140,15 @@ def test_the_tutorial_from_an_empty_scene(tmp_path):
         assert f"ViewLayer.{name}.R" in channels or f"ViewLayer.{name}.X" in channels, (name, sorted(channels))
     combined = np.stack([channels[f"ViewLayer.Combined.{c}"] for c in "RGB"], -1)
     assert np.isfinite(combined).all() and combined.mean() > 0
+
+
+def test_photic_blend_is_the_add_on_packages_command(tmp_path, capsys):
+    """photic blend hands its arguments to the add-on package's photic-blend (the engine
+    imports no Blender): help, and a radiometers-only render of an example."""
+    from photic.cli import main
+    with pytest.raises(SystemExit) as e:
+        main(["blend", "--help"])
+    assert e.value.code == 0 and "photic-blend" in capsys.readouterr().out
+    assert main(["blend", str(BLENDS / "canonical_problem2.blend"), "--out", str(tmp_path),
+                 "--radiometer-samples", "1024", "--radiometers-only", "--quiet"]) == 0
+    assert any(p.name.endswith("_radiometers.csv") for p in tmp_path.iterdir())

@@ -282,23 +282,31 @@ def cmd_derive(args) -> int:
 
 
 def find_addon() -> Path:
-    """The Blender add-on's folder: $PHOTIC_ADDON_DIR, else the repository's blender_addon."""
+    """The Blender add-on's folder: $PHOTIC_ADDON_DIR, else the installed add-on package
+    (``pip install -e ./blender_addon``)."""
+    import importlib.util
     env = os.environ.get("PHOTIC_ADDON_DIR")
-    candidates = [Path(env)] if env else []
-    candidates.append(Path(__file__).resolve().parents[3] / "blender_addon")
-    for c in candidates:
-        if (c / "__init__.py").is_file() and (c / "batch.py").is_file():
-            return c
-    raise FileNotFoundError("the Photic Blender add-on was not found: set PHOTIC_ADDON_DIR to its "
-                            "folder (blender_addon in the repository)")
+    if env and (Path(env) / "__init__.py").is_file():
+        return Path(env)
+    spec = importlib.util.find_spec("photic_blender")
+    if spec is not None and spec.origin:
+        return Path(spec.origin).parent
+    raise FileNotFoundError("the Photic Blender add-on package is not installed: pip install -e "
+                            "./blender_addon (scripts/install.sh does it), or set PHOTIC_ADDON_DIR "
+                            "to the add-on's folder")
 
 
 def load_addon():
-    """Import the add-on (as ``photic_blender``) with ``bpy``; the engine itself never does."""
+    """Import the add-on package (``photic_blender``, which imports ``bpy``): for tests,
+    benchmarks and the add-on's own commands; the engine itself never calls it."""
+    import importlib
     import importlib.util
 
     if "photic_blender" in sys.modules:
         return sys.modules["photic_blender"]
+    env = os.environ.get("PHOTIC_ADDON_DIR")
+    if not env and importlib.util.find_spec("photic_blender") is not None:
+        return importlib.import_module("photic_blender")
     folder = find_addon()
     spec = importlib.util.spec_from_file_location("photic_blender", folder / "__init__.py",
                                                   submodule_search_locations=[str(folder)])
@@ -309,55 +317,19 @@ def load_addon():
 
 
 def cmd_blend(args) -> int:
-    try:
-        import bpy  # noqa: F401  (Blender as a Python module)
-    except ImportError as exc:
-        print(f"photic blend: the bpy module is needed ({exc}); install it with "
-              f"'pip install bpy==5.0.*' (Python 3.11)", file=sys.stderr)
+    """``photic blend ...``: the add-on package's command (``photic-blend``), which renders
+    through Blender; the engine only hands the arguments over when the package is installed."""
+    import importlib.util
+    if importlib.util.find_spec("bpy") is None:
+        print("photic blend: the bpy module is needed; install it with 'pip install bpy==5.0.*' "
+              "(Python 3.11)", file=sys.stderr)
         return 2
-    try:
-        load_addon()
-        from importlib import import_module
-        batch = import_module("photic_blender.batch")
-        bar, progress = None, None
-        if not args.quiet:
-            from tqdm import tqdm
-            bar = tqdm(total=1000, desc=f"rendering {Path(args.file).name}", unit="‰",
-                       file=sys.stderr, bar_format="{desc}: {percentage:3.0f}%|{bar}| "
-                                                   "{elapsed}<{remaining} {postfix}")
-
-            def progress(fraction, text):
-                bar.n = min(1000, int(round(1000 * fraction)))
-                bar.set_postfix_str(text, refresh=False)
-                bar.refresh()
-        try:
-            summary = batch.render_blend(args.file, frame=args.frame, out_dir=args.out,
-                                         samples=args.samples,
-                                         radiometer_samples=args.radiometer_samples,
-                                         seed=args.seed, threads=args.threads, progress=progress,
-                                         target_error=args.target_error,
-                                         noise_threshold=args.noise_threshold,
-                                         radiometers_only=args.radiometers_only,
-                                         png=args.png)
-        finally:
-            if bar is not None:
-                bar.close()
-    except (FileNotFoundError, RuntimeError) as exc:
-        print(f"photic blend: {exc}", file=sys.stderr)
+    if importlib.util.find_spec("photic_blender") is None:
+        print("photic blend: the Blender add-on package is not installed (pip install -e "
+              "./blender_addon; scripts/install.sh does it)", file=sys.stderr)
         return 2
-    if summary.get("image"):
-        print(f"image: {summary['image']}")
-    if summary.get("png"):
-        print(f"picture: {summary['png']}")
-    for t in summary.get("tables", []):
-        print(f"radiometer table: {t}")
-    st = summary.get("stats") or {}
-    if st.get("target_error") is not None:
-        print(f"target error {100 * st['target_error']:.3g} %: reached by {st['target_reached']} "
-              f"radiometers in {st['rounds']} rounds (at most {st['radiometer_samples']} samples)")
-    if summary.get("cancelled"):
-        print("cancelled: the image holds the samples finished so far", file=sys.stderr)
-    return 0
+    from photic_blender.cli import main as blend_main
+    return blend_main(args.args)
 
 
 def cmd_batch(args) -> int:
@@ -504,32 +476,10 @@ def build_parser() -> argparse.ArgumentParser:
                                     "photic.iop_models and photic.wave_models (see "
                                     "engine/src/photic/plugins.py and docs/plugin_example).")
     pl.set_defaults(func=cmd_plugins)
-    bl = sub.add_parser("blend", help="render a .blend file with the Photic Blender add-on (needs bpy)",
-                        description="Opens FILE.blend with the bpy module, renders one frame through "
-                                    "the Photic render engine of the add-on (as F12 does) and writes a "
-                                    "multilayer EXR <file>_<frame>.exr (Combined = the display bands "
-                                    "as RGB, and the Photic Beam Surface / Beam Volume / Path / "
-                                    "Variance passes) and, when the scene has radiometers, "
-                                    "<file>_<frame>_radiometers.csv/.json beside it.")
-    bl.add_argument("file", type=Path, help=".blend file")
-    bl.add_argument("--frame", type=int, default=None, help="frame to render (default: the file's current frame)")
-    bl.add_argument("--out", type=Path, default=Path("out"), help="output directory (default: out)")
-    bl.add_argument("--samples", type=int, default=None, help="samples per pixel (default: the file's)")
-    bl.add_argument("--radiometer-samples", type=int, default=None, help="samples per radiometer (default: the file's)")
-    bl.add_argument("--target-error", type=relative_error_arg, default=None, metavar="REL",
-                    help="stop each radiometer at this relative standard error, e.g. 1%% "
-                         "(default: the file's Target Error)")
-    bl.add_argument("--noise-threshold", type=relative_error_arg, default=None, metavar="REL",
-                    help="turn on the file's Noise Threshold (adaptive sampling) at REL, e.g. 2%%")
-    bl.add_argument("--radiometers-only", action="store_true",
-                    help="render the file's radiometers alone (no image), as Render > Render "
-                         "Radiometers does; a file without a camera does so anyway")
-    bl.add_argument("--png", action="store_true",
-                    help="also write <file>_<frame>.png beside the EXR, as Blender displays the "
-                         "image (view transform, exposure)")
-    bl.add_argument("--seed", type=int, default=None, help="random seed (default: the file's)")
-    bl.add_argument("--threads", type=int, default=None, help="threads, 0 = all cores (default: the file's)")
-    bl.add_argument("--quiet", action="store_true", help="no progress bar")
+    bl = sub.add_parser("blend", add_help=False,
+                        help="render a .blend file with the Photic Blender add-on (needs bpy and the "
+                             "add-on package; the same as photic-blend)")
+    bl.add_argument("args", nargs=argparse.REMAINDER, help="photic-blend's arguments (photic blend --help)")
     bl.set_defaults(func=cmd_blend)
     dv = sub.add_parser("derive", help="Kd, R, Rrs and mean cosines from a radiometer table",
                         description="Reads TABLE (<scene>_radiometers.json, written by 'photic render') "
@@ -600,6 +550,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else [str(a) for a in argv]
+    if argv[:1] == ["blend"]:  # everything after it is photic-blend's (--help included)
+        return cmd_blend(argparse.Namespace(args=argv[1:]))
     args = build_parser().parse_args(argv)
     return args.func(args)
 
