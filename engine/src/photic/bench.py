@@ -746,7 +746,7 @@ def run_cycles_pool(resolution=(256, 256), samples=(16, 64), threads: int = 2, w
     import sys
     import tempfile
 
-    from .cli import find_addon
+    from .addon import find_addon
     from .scene import save_scene
     from .scenes import stepped_pool
 

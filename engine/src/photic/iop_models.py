@@ -107,7 +107,8 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from .scene import PHASE_FUNCTION_PARAMS, IOPs, PhaseFunction, ScatteringComponent, SceneError
+from .scene.checks import PHASE_FUNCTION_PARAMS, SceneError
+from .scene.model import IOPs, PhaseFunction, ScatteringComponent
 
 __all__ = [
     "WATER_ABSORPTION_SOURCES", "SpectralTable", "pope_fry_1997", "smith_baker_1981",

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from .scene import IOPProfile, IOPs, PhaseFunction, ScatteringComponent
+from .scene.model import IOPProfile, IOPs, PhaseFunction, ScatteringComponent
 
 __all__ = ["align_components", "gaussian_chlorophyll", "profile_from_function"]
 

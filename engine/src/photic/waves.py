@@ -146,7 +146,7 @@ class WaveModel:
     def validate(self, obj: str = "wave model", prefix: str = "") -> None:
         """Check every field; raise ``SceneError(obj, prefix + field, ...)`` on the first
         problem (``obj`` e.g. ``"water 'sea'"``, ``prefix`` e.g. ``"surface."``)."""
-        from .scene import SceneError, _check_choice, _check_int, _check_real, _show
+        from .scene.checks import SceneError, _check_choice, _check_int, _check_real, _show
 
         _check_choice(obj, f"{prefix}spectrum", self.spectrum, SPECTRA)
         windy = self.spectrum in ("pierson_moskowitz", "jonswap", "phillips")
@@ -159,7 +159,7 @@ class WaveModel:
                                                          f"{_show(value)}")
             for i, x in enumerate(value):
                 if lo is None:
-                    from .scene import MAX_COORDINATE_M
+                    from .scene.checks import MAX_COORDINATE_M
                     _check_real(obj, f"{prefix}{name}[{i}]", x, 1e-3, 2 * MAX_COORDINATE_M)
                 else:
                     _check_int(obj, f"{prefix}{name}[{i}]", x, lo, hi)
