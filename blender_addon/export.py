@@ -18,6 +18,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import bands as bandmod
+from .export_values import (  # noqa: F401  (export.ExportError ... as before)
+    ExportCancelled, ExportError, _finite_non_negative, _obj, blender_float, per_band,
+)
 from .mesh_export import drop_degenerate, evaluated_mesh, mesh_arrays, transform
 from .nodes import find_node
 
@@ -25,22 +28,6 @@ GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT", "CURVES", "POINTCL
 DEFAULT_MATERIAL = "photic_default_grey"
 DEFAULT_REFLECTANCE = 0.5
 CHECK_EVERY = 1000  # instances between cancel checks and progress reports
-
-
-class ExportError(Exception):
-    """A problem in the Blender scene: the data-block (``owner``, e.g. ``Object 'Sea'``), the
-    property (its UI name and its Python path) and what is wrong."""
-
-    def __init__(self, owner: str, prop: str, message: str):
-        super().__init__(owner, prop, message)
-        self.owner, self.prop, self.message = owner, prop, message
-
-    def __str__(self) -> str:
-        return f"{self.owner}, {self.prop}: {self.message}"
-
-
-class ExportCancelled(Exception):
-    """The user stopped the export."""
 
 
 @dataclass
@@ -65,52 +52,6 @@ class ViewCamera:
     ortho_width: float
     shift: tuple
     clip_start: float
-
-
-def blender_float(x: float) -> float:
-    """A Blender float property as the decimal number the user typed.
-
-    Blender stores properties in float32 (about 7 significant digits): 1.34 comes back as
-    1.3400000334. Keeping 7 significant digits recovers 1.34, so a scene made in Blender and
-    the same scene written as a file are identical."""
-    return float(f"{float(x):.7g}")
-
-
-def _obj(name: str) -> str:
-    return f"Object '{name}'"
-
-
-def _finite_non_negative(owner: str, prop: str, values: np.ndarray, what: str) -> None:
-    for i, x in enumerate(values):
-        if not math.isfinite(x):
-            raise ExportError(owner, prop, f"{what} in band {i + 1} is {x} (must be a finite number)")
-        if x < 0:
-            raise ExportError(owner, prop, f"{what} in band {i + 1} is {x:g} (must be >= 0)")
-
-
-def per_band(owner: str, single: float, text: str, name: str, path: str, bands,
-             what: str, hi: float | None = None) -> np.ndarray:
-    """A per-band value from a single-number property and its optional per-band text."""
-    nb = len(bands)
-    if text.strip():
-        prop = f"{name} per Band ({path}_bands)"
-        try:
-            values = bandmod.parse_number_list(text, f"'{name} per Band'")
-        except ValueError as exc:
-            raise ExportError(owner, prop, str(exc)) from None
-        if len(values) == 1:
-            values = values * nb
-        if len(values) != nb:
-            raise ExportError(owner, prop, f"has {len(values)} values but the scene has {nb} "
-                                           f"bands ({', '.join(b[0] for b in bands)} nm)")
-        arr = np.array(values, float)
-    else:
-        prop = f"{name} ({path})"
-        arr = np.full(nb, blender_float(single))
-    _finite_non_negative(owner, prop, arr, what)
-    if hi is not None and np.any(arr > hi):
-        raise ExportError(owner, prop, f"{what} {arr.max():g} is above {hi:g}")
-    return arr
 
 
 class _Exporter:

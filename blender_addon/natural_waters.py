@@ -26,7 +26,7 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from .export import ExportError, _obj, blender_float, per_band
+from .export_values import ExportError, _obj, blender_float, per_band
 from .properties import MAX_FURTHER_FIELDS
 
 MAX_LAYERS = 5000

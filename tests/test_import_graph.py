@@ -10,19 +10,20 @@ from pathlib import Path
 import photic
 
 ROOT = Path(photic.__file__).resolve().parent
+ADDON = Path(__file__).resolve().parents[1] / "blender_addon"
 
 
-def modules() -> dict[str, Path]:
+def modules(root: Path = ROOT, package: str = "photic") -> dict[str, Path]:
     out = {}
-    for f in ROOT.rglob("*.py"):
-        parts = f.relative_to(ROOT).with_suffix("").parts
-        name = ".".join(("photic",) + parts)
+    for f in root.rglob("*.py"):
+        parts = f.relative_to(root).with_suffix("").parts
+        name = ".".join((package,) + parts)
         out[name.removesuffix(".__init__")] = f
     return out
 
 
-def import_graph() -> dict[str, set[str]]:
-    mods = modules()
+def import_graph(root: Path = ROOT, package: str = "photic") -> dict[str, set[str]]:
+    mods = modules(root, package)
     graph = {m: set() for m in mods}
     for m, f in mods.items():
         package = m if f.name == "__init__.py" else m.rsplit(".", 1)[0]
@@ -74,6 +75,13 @@ def circles(graph: dict[str, set[str]]) -> list[list[str]]:
 def test_the_engine_has_no_import_circles():
     graph = import_graph()
     assert "photic.scene.checks" in graph and "photic.scene.model" in graph
+    assert circles(graph) == []
+
+
+def test_the_add_on_has_no_import_circles():
+    """(export and natural_waters imported each other; what both need is export_values.)"""
+    graph = import_graph(ADDON, "photic_blender")
+    assert "photic_blender.export_values" in graph
     assert circles(graph) == []
 
 
