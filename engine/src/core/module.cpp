@@ -3,18 +3,18 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
+#include "bind_common.h"
 #include "optics.h"
 #include "scene.h"
 
-namespace py = pybind11;
 using namespace photic;
-namespace photic { void bind_rough_interface(py::module_& m); }  // bind_rough_interface.cpp
+namespace photic {
+void bind_rough_interface(py::module_& m);        // bind_rough_interface.cpp
+void bind_test_probes(py::class_<Scene>& scene);  // bind_test_probes.cpp
+}
 
 namespace {
 
-using DArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
-using FArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
-using UArray = py::array_t<uint32_t, py::array::c_style | py::array::forcecast>;
 
 Spectrum to_spectrum(const DArray& a, int nb, const char* what) {
     if (a.ndim() != 1 || a.shape(0) != nb)
@@ -24,29 +24,6 @@ Spectrum to_spectrum(const DArray& a, int nb, const char* what) {
     return s;
 }
 
-Vec3 to_vec(const std::array<double, 3>& a) { return Vec3(a[0], a[1], a[2]); }
-
-// The grid of water `water` (the test bindings' walks and lookups), or a ValueError.
-const VoxelGrid& grid_of(const Scene& s, int water) {
-    const Water& w = s.waters.at(water);
-    if (!w.grid) throw std::invalid_argument("this water has no grid");
-    return *w.grid;
-}
-
-// A walk along o + d (normalised) through the grid of `water`, for the tracking bindings,
-// which take one coefficient per density field in s1.
-VoxelGrid::Cursor grid_cursor(const Scene& s, int water, const std::array<double, 3>& o,
-                              const std::array<double, 3>& d, const std::vector<double>& s1) {
-    const VoxelGrid& g = grid_of(s, water);
-    if (int(s1.size()) != g.nfields) throw std::invalid_argument("s1 needs one coefficient per density field");
-    return VoxelGrid::Cursor(g, to_vec(o), normalize(to_vec(d)));
-}
-
-// A tracking binding's answer: (reached, position, densities there, int rho_f up to it, depth left).
-py::tuple march_result(const VoxelGrid::Cursor& c, bool hit, const double* rho, double xi, int nf) {
-    return py::make_tuple(hit, c.position(), std::vector<double>(rho, rho + nf),
-                          std::vector<double>(c.integral(), c.integral() + nf), xi);
-}
 
 // A pass's [sum, sum of squares] of the given shape, zeroed: the caller's arrays `out` when
 // given (reused from pass to pass: new large arrays cost a page fault per 4 kB page, on
@@ -123,7 +100,8 @@ PYBIND11_MODULE(_core, m) {
         .def_property_readonly("table_x", &PhaseFunction::table_x)
         .def_property_readonly("table_values", &PhaseFunction::table_values);
 
-    py::class_<Scene>(m, "Scene")
+    py::class_<Scene> scene(m, "Scene");
+    scene
         .def(py::init<>())
         .def_readwrite("nbands", &Scene::nbands)
         .def_readwrite("seed", &Scene::seed)
@@ -157,60 +135,6 @@ PYBIND11_MODULE(_core, m) {
             }
             return out;
         }, py::arg("x"), py::arg("medium"), "(direction, irradiance normal to it per band) of every beam at x.")
-        .def("beam_flux_through_plane", [](const Scene& s, double z) {
-            // Sum over prisms of (irradiance on the horizontal plane at the slice centroid) x
-            // (area of the prism's horizontal cross-section at z), band 0. Prisms sliced
-            // horizontally only; the cross-section area is computed here independently.
-            double flux = 0.0;
-            for (const auto& P : s.prisms) {
-                if (P.m.z != -1.0) continue;
-                Vec3 p[3];
-                bool inside = true;
-                for (int j = 0; j < 3; ++j) {
-                    double t = (-z - P.mv[j]) / P.md[j];
-                    if (t < 0.0 || t > P.len[j]) inside = false;
-                    p[j] = P.v[j] + P.d[j] * t;
-                }
-                if (!inside) continue;
-                double area = 0.5 * std::fabs((p[1].x - p[0].x) * (p[2].y - p[0].y) - (p[2].x - p[0].x) * (p[1].y - p[0].y));
-                Vec3 cen = (p[0] + p[1] + p[2]) * (1.0 / 3.0);
-                BeamSample b;
-                if (!s.prism_eval(P, cen, cen, &b)) continue;
-                flux += b.e.v[0] * (-b.d.z) * area;
-            }
-            return flux;
-        }, py::arg("z"))
-        .def("prism_arrays", [](const Scene& s) {
-            // (start vertices (N,3,3), directions (N,3,3), lengths (N,3), flux band 0 (N,),
-            //  whether each ray ended on a surface (N,3))
-            size_t n = s.prisms.size();
-            DArray v({py::ssize_t(n), py::ssize_t(3), py::ssize_t(3)}), d({py::ssize_t(n), py::ssize_t(3), py::ssize_t(3)});
-            DArray len({py::ssize_t(n), py::ssize_t(3)});
-            DArray phi{py::ssize_t(n)};
-            py::array_t<bool> hit({py::ssize_t(n), py::ssize_t(3)});
-            for (size_t i = 0; i < n; ++i) {
-                const auto& P = s.prisms[i];
-                for (int j = 0; j < 3; ++j) {
-                    for (int c = 0; c < 3; ++c) {
-                        v.mutable_at(i, j, c) = P.v[j][c];
-                        d.mutable_at(i, j, c) = P.d[j][c];
-                    }
-                    len.mutable_at(i, j) = P.len[j];
-                    hit.mutable_at(i, j) = P.hit[j];
-                }
-                phi.mutable_at(i) = P.phi.v[0];
-            }
-            return py::make_tuple(v, d, len, phi, hit);
-        })
-        .def("prism_checks", [](const Scene& s) {
-            // Per prism, which shadow rays its queries test: (N, 2) of (path, sun).
-            py::array_t<bool> c({py::ssize_t(s.prisms.size()), py::ssize_t(2)});
-            for (size_t i = 0; i < s.prisms.size(); ++i) {
-                c.mutable_at(i, 0) = s.prisms[i].check_path;
-                c.mutable_at(i, 1) = s.prisms[i].check_sun;
-            }
-            return c;
-        })
         .def("add_material", [](Scene& s, DArray refl) {
             s.materials.push_back({to_spectrum(refl, s.nbands, "reflectance")});
             return int(s.materials.size()) - 1;
@@ -409,51 +333,6 @@ PYBIND11_MODULE(_core, m) {
         .def("medium_at", [](const Scene& s, std::array<double, 3> p) { return s.medium_at(to_vec(p)); })
         .def("inside_opaque", [](const Scene& s, std::array<double, 3> p) { return s.inside_opaque(to_vec(p)); },
              "Whether p lies inside a closed opaque object (most of six rays meet one from behind).")
-        .def("grid_integral", [](const Scene& s, int water, std::array<double, 3> p0, std::array<double, 3> p1) {
-            const VoxelGrid& g = grid_of(s, water);
-            Vec3 a = to_vec(p0), b = to_vec(p1);
-            double r[VoxelGrid::kMaxFields];
-            g.integral(a, b, length(b - a), r);
-            return std::vector<double>(r, r + g.nfields);
-        }, py::arg("water"), py::arg("p0"), py::arg("p1"),
-           "The integral of each of the grid's density fields along the segment p0 -> p1 (m): "
-           "what the integrators' optical depths use (for tests).")
-        .def("grid_density", [](const Scene& s, int water, std::array<double, 3> p) {
-            const VoxelGrid& g = grid_of(s, water);
-            double r[VoxelGrid::kMaxFields];
-            g.at(to_vec(p), r);
-            return std::vector<double>(r, r + g.nfields);
-        }, py::arg("water"), py::arg("p"),
-           "The grid's densities at p, one per field (0 outside the box): what the beam terms' "
-           "scattering uses (for tests).")
-        .def("grid_march", [](const Scene& s, int water, std::array<double, 3> o, std::array<double, 3> d,
-                              double s0, std::vector<double> s1, double xi, double t_stop) {
-            VoxelGrid::Cursor c = grid_cursor(s, water, o, d, s1);
-            double rho[VoxelGrid::kMaxFields];
-            const bool hit = c.march(s0, s1.data(), &xi, t_stop, rho);
-            return march_result(c, hit, rho, xi, int(s1.size()));
-        }, py::arg("water"), py::arg("o"), py::arg("d"), py::arg("s0"), py::arg("s1"), py::arg("xi"),
-           py::arg("t_stop"),
-           "Regular tracking along o + d t in the grid (for tests): (reached, position, densities "
-           "there, int rho_f up to it, depth left) for the optical depth xi of "
-           "s0 + sum_f s1[f] rho_f.")
-        .def("grid_walk", [](const Scene& s, int water, std::array<double, 3> o, std::array<double, 3> d,
-                             double s0, std::vector<double> s1, std::vector<std::pair<double, double>> steps) {
-            VoxelGrid::Cursor c = grid_cursor(s, water, o, d, s1);
-            py::list out;
-            for (auto [xi, t] : steps) {
-                double rho[VoxelGrid::kMaxFields] = {};
-                bool hit = false;
-                if (xi < 0.0) c.value(t);
-                else hit = c.march(s0, s1.data(), &xi, t, rho);
-                out.append(march_result(c, hit, rho, xi, int(s1.size())));
-            }
-            return py::make_tuple(c.by_columns(), out);
-        }, py::arg("water"), py::arg("o"), py::arg("d"), py::arg("s0"), py::arg("s1"), py::arg("steps"),
-           "One walk along o + d t in the grid taking steps in turn, as the integrators do (for "
-           "tests): (xi, t) with xi < 0 reads the integrals at t (value), else tracks as "
-           "grid_march does; (walked by columns, [(reached, position, densities, integrals, "
-           "depth left) per step]).")
         .def("camera_medium", [](const Scene& s, int i) { return s.cameras.at(i).medium; })
         .def("radiometer_medium", [](const Scene& s, int i) { return s.radiometers.at(i).medium; })
         .def("radiometer_bins", [](const Scene& s, int i) { return s.radiometers.at(i).bins(); })
@@ -545,4 +424,5 @@ PYBIND11_MODULE(_core, m) {
         }, py::arg("origins"), py::arg("directions"), py::arg("threads") = 0, py::arg("tmax") = py::none(),
            "Closest-hit distances (-1 for a miss) of the main Embree scene: raw ray throughput; "
            "tmax: per-ray far limits (default: rays to infinity).");
+    bind_test_probes(scene);  // bind_test_probes.cpp: checks for the tests only
 }

@@ -1,0 +1,140 @@
+// Bindings that only tests use (photic._core.Scene): the beams' flux through a plane, the prisms'
+// arrays and shadow checks, and the voxel grid's walks, integrals and lookups, each checked
+// against an independent numpy computation. Kept apart from module.cpp, which binds what the
+// renderer uses.
+#include <cmath>
+#include "bind_common.h"
+#include "scene.h"
+
+namespace photic {
+
+namespace {
+
+// The grid of water `water` (the test bindings' walks and lookups), or a ValueError.
+const VoxelGrid& grid_of(const Scene& s, int water) {
+    const Water& w = s.waters.at(water);
+    if (!w.grid) throw std::invalid_argument("this water has no grid");
+    return *w.grid;
+}
+
+// A walk along o + d (normalised) through the grid of `water`, for the tracking bindings,
+// which take one coefficient per density field in s1.
+VoxelGrid::Cursor grid_cursor(const Scene& s, int water, const std::array<double, 3>& o,
+                              const std::array<double, 3>& d, const std::vector<double>& s1) {
+    const VoxelGrid& g = grid_of(s, water);
+    if (int(s1.size()) != g.nfields) throw std::invalid_argument("s1 needs one coefficient per density field");
+    return VoxelGrid::Cursor(g, to_vec(o), normalize(to_vec(d)));
+}
+
+// A tracking binding's answer: (reached, position, densities there, int rho_f up to it, depth left).
+py::tuple march_result(const VoxelGrid::Cursor& c, bool hit, const double* rho, double xi, int nf) {
+    return py::make_tuple(hit, c.position(), std::vector<double>(rho, rho + nf),
+                          std::vector<double>(c.integral(), c.integral() + nf), xi);
+}
+
+}  // namespace
+
+void bind_test_probes(py::class_<Scene>& scene) {
+    scene
+        .def("beam_flux_through_plane", [](const Scene& s, double z) {
+            // Sum over prisms of (irradiance on the horizontal plane at the slice centroid) x
+            // (area of the prism's horizontal cross-section at z), band 0. Prisms sliced
+            // horizontally only; the cross-section area is computed here independently.
+            double flux = 0.0;
+            for (const auto& P : s.prisms) {
+                if (P.m.z != -1.0) continue;
+                Vec3 p[3];
+                bool inside = true;
+                for (int j = 0; j < 3; ++j) {
+                    double t = (-z - P.mv[j]) / P.md[j];
+                    if (t < 0.0 || t > P.len[j]) inside = false;
+                    p[j] = P.v[j] + P.d[j] * t;
+                }
+                if (!inside) continue;
+                double area = 0.5 * std::fabs((p[1].x - p[0].x) * (p[2].y - p[0].y) - (p[2].x - p[0].x) * (p[1].y - p[0].y));
+                Vec3 cen = (p[0] + p[1] + p[2]) * (1.0 / 3.0);
+                BeamSample b;
+                if (!s.prism_eval(P, cen, cen, &b)) continue;
+                flux += b.e.v[0] * (-b.d.z) * area;
+            }
+            return flux;
+        }, py::arg("z"))
+        .def("prism_arrays", [](const Scene& s) {
+            // (start vertices (N,3,3), directions (N,3,3), lengths (N,3), flux band 0 (N,),
+            //  whether each ray ended on a surface (N,3))
+            size_t n = s.prisms.size();
+            DArray v({py::ssize_t(n), py::ssize_t(3), py::ssize_t(3)}), d({py::ssize_t(n), py::ssize_t(3), py::ssize_t(3)});
+            DArray len({py::ssize_t(n), py::ssize_t(3)});
+            DArray phi{py::ssize_t(n)};
+            py::array_t<bool> hit({py::ssize_t(n), py::ssize_t(3)});
+            for (size_t i = 0; i < n; ++i) {
+                const auto& P = s.prisms[i];
+                for (int j = 0; j < 3; ++j) {
+                    for (int c = 0; c < 3; ++c) {
+                        v.mutable_at(i, j, c) = P.v[j][c];
+                        d.mutable_at(i, j, c) = P.d[j][c];
+                    }
+                    len.mutable_at(i, j) = P.len[j];
+                    hit.mutable_at(i, j) = P.hit[j];
+                }
+                phi.mutable_at(i) = P.phi.v[0];
+            }
+            return py::make_tuple(v, d, len, phi, hit);
+        })
+        .def("prism_checks", [](const Scene& s) {
+            // Per prism, which shadow rays its queries test: (N, 2) of (path, sun).
+            py::array_t<bool> c({py::ssize_t(s.prisms.size()), py::ssize_t(2)});
+            for (size_t i = 0; i < s.prisms.size(); ++i) {
+                c.mutable_at(i, 0) = s.prisms[i].check_path;
+                c.mutable_at(i, 1) = s.prisms[i].check_sun;
+            }
+            return c;
+        })
+        .def("grid_integral", [](const Scene& s, int water, std::array<double, 3> p0, std::array<double, 3> p1) {
+            const VoxelGrid& g = grid_of(s, water);
+            Vec3 a = to_vec(p0), b = to_vec(p1);
+            double r[VoxelGrid::kMaxFields];
+            g.integral(a, b, length(b - a), r);
+            return std::vector<double>(r, r + g.nfields);
+        }, py::arg("water"), py::arg("p0"), py::arg("p1"),
+           "The integral of each of the grid's density fields along the segment p0 -> p1 (m): "
+           "what the integrators' optical depths use (for tests).")
+        .def("grid_density", [](const Scene& s, int water, std::array<double, 3> p) {
+            const VoxelGrid& g = grid_of(s, water);
+            double r[VoxelGrid::kMaxFields];
+            g.at(to_vec(p), r);
+            return std::vector<double>(r, r + g.nfields);
+        }, py::arg("water"), py::arg("p"),
+           "The grid's densities at p, one per field (0 outside the box): what the beam terms' "
+           "scattering uses (for tests).")
+        .def("grid_march", [](const Scene& s, int water, std::array<double, 3> o, std::array<double, 3> d,
+                              double s0, std::vector<double> s1, double xi, double t_stop) {
+            VoxelGrid::Cursor c = grid_cursor(s, water, o, d, s1);
+            double rho[VoxelGrid::kMaxFields];
+            const bool hit = c.march(s0, s1.data(), &xi, t_stop, rho);
+            return march_result(c, hit, rho, xi, int(s1.size()));
+        }, py::arg("water"), py::arg("o"), py::arg("d"), py::arg("s0"), py::arg("s1"), py::arg("xi"),
+           py::arg("t_stop"),
+           "Regular tracking along o + d t in the grid (for tests): (reached, position, densities "
+           "there, int rho_f up to it, depth left) for the optical depth xi of "
+           "s0 + sum_f s1[f] rho_f.")
+        .def("grid_walk", [](const Scene& s, int water, std::array<double, 3> o, std::array<double, 3> d,
+                             double s0, std::vector<double> s1, std::vector<std::pair<double, double>> steps) {
+            VoxelGrid::Cursor c = grid_cursor(s, water, o, d, s1);
+            py::list out;
+            for (auto [xi, t] : steps) {
+                double rho[VoxelGrid::kMaxFields] = {};
+                bool hit = false;
+                if (xi < 0.0) c.value(t);
+                else hit = c.march(s0, s1.data(), &xi, t, rho);
+                out.append(march_result(c, hit, rho, xi, int(s1.size())));
+            }
+            return py::make_tuple(c.by_columns(), out);
+        }, py::arg("water"), py::arg("o"), py::arg("d"), py::arg("s0"), py::arg("s1"), py::arg("steps"),
+           "One walk along o + d t in the grid taking steps in turn, as the integrators do (for "
+           "tests): (xi, t) with xi < 0 reads the integrals at t (value), else tracks as "
+           "grid_march does; (walked by columns, [(reached, position, densities, integrals, "
+           "depth left) per step]).");
+}
+
+}  // namespace photic
