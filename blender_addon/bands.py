@@ -37,6 +37,12 @@ def parse_number_list(text: str, what: str) -> list[float]:
     return values
 
 
+def _band_ranges():
+    """The declared ranges of a band's centre and width (``photic.parameters``)."""
+    from photic.parameters import PARAMETERS
+    return PARAMETERS["band.center_nm"], PARAMETERS["band.width_nm"]
+
+
 def scene_bands(props) -> list[tuple[str, float, float]]:
     """(name, centre_nm, width_nm) of each band from ``Scene.photic``."""
     if props.bands == "RGB":
@@ -54,10 +60,13 @@ def scene_bands(props) -> list[tuple[str, float, float]]:
         except (ValueError, IndexError):
             raise BandError("custom_bands", f"band {i + 1} ({item.strip()!r}) must be "
                                             f"'centre_nm:width_nm' or 'centre_nm'") from None
-        if not (math.isfinite(c) and 200.0 <= c <= 3000.0):
-            raise BandError("custom_bands", f"band {i + 1}: centre {c:g} nm is outside 200-3000 nm")
-        if not (math.isfinite(w) and w > 0.0):
-            raise BandError("custom_bands", f"band {i + 1}: width {w:g} nm must be > 0")
+        centre, width = _band_ranges()
+        if not (math.isfinite(c) and centre.contains(c)):
+            raise BandError("custom_bands", f"band {i + 1}: centre {c:g} nm is outside "
+                                            f"{centre.lo:g}-{centre.hi:g} nm")
+        if not (math.isfinite(w) and width.contains(w)):
+            raise BandError("custom_bands", f"band {i + 1}: width {w:g} nm is outside "
+                                            f"{width.lo:g}-{width.hi:g} nm")
         bands.append((f"{c:g}", c, w))
     if not bands:
         raise BandError("custom_bands", "is empty: give at least one band, e.g. '450:20, 550:20'")

@@ -549,7 +549,7 @@ class PhoticSceneProperties(bpy.types.PropertyGroup):
                                       min=0.0, max=math.radians(30.0),
                                       description="Half-angle of the forward-scattering cone "
                                                   "(degrees), in [0, 30]; 0: none")
-    beam_max_level: IntProperty(name="Beam Refinement", default=5, min=0, max=12,
+    beam_max_level: IntProperty(name="Beam Refinement", default=5, min=0, max=10,
                                 description="Levels of adaptive subdivision of a surface "
                                             "triangle's beam where its rays disagree (each "
                                             "level halves the beam cell size)")

@@ -1152,3 +1152,40 @@ def test_photic_blend_is_the_add_on_packages_command(tmp_path, capsys):
     assert main(["blend", str(BLENDS / "canonical_problem2.blend"), "--out", str(tmp_path),
                  "--radiometer-samples", "1024", "--radiometers-only", "--quiet"]) == 0
     assert any(p.name.endswith("_radiometers.csv") for p in tmp_path.iterdir())
+
+
+# Blender property -> (parameter, scale from the property's unit to the parameter's, and why
+# Blender's own range may be narrower than the declared one)
+ADDON_PARAMETERS = [
+    ("PhoticSceneProperties", "samples", "settings.samples", 1.0, None),
+    ("PhoticSceneProperties", "radiometer_samples", "settings.radiometer_samples", 1.0, "int32"),
+    ("PhoticSceneProperties", "seed", "settings.seed", 1.0, "int32"),
+    ("PhoticSceneProperties", "threads", "settings.threads", 1.0, None),
+    ("PhoticSceneProperties", "max_depth", "settings.max_depth", 1.0, None),
+    ("PhoticSceneProperties", "beam_max_level", "settings.beam_max_level", 1.0, None),
+    ("PhoticSceneProperties", "adaptive_min_samples", "settings.adaptive_min_samples", 1.0, None),
+    ("PhoticSceneProperties", "forward_cone_angle", "settings.forward_cone_deg", 180.0 / math.pi, None),
+    ("PhoticSceneProperties", "target_error", "settings.target_error", 0.01, "percent"),
+    ("PhoticSceneProperties", "noise_threshold", "settings.noise_threshold", 0.01, "percent"),
+    ("PhoticObjectProperties", "ior", "water.ior", 1.0, None),
+    ("PhoticSceneProperties", "band_center_nm", "band.center_nm", 1.0, None),
+    ("PhoticSceneProperties", "band_width_nm", "band.width_nm", 1.0, None),
+]
+
+
+@pytest.mark.parametrize("cls, prop, key, scale, narrower", ADDON_PARAMETERS, ids=[a[1] for a in ADDON_PARAMETERS])
+def test_addon_property_limits_agree_with_the_declared_parameters(empty, cls, prop, key, scale, narrower):
+    """The add-on's hard limits equal the declaration (photic/parameters.py), except where
+    Blender cannot hold the range (32-bit integers) or the UI offers a percentage within it;
+    then they lie inside it. Defaults equal where both have one."""
+    from photic.parameters import PARAMETERS
+    from photic_blender import properties as props
+    p = PARAMETERS[key]
+    rna = getattr(props, cls).bl_rna.properties[prop]
+    lo, hi = rna.hard_min * scale, rna.hard_max * scale
+    if narrower is None:
+        assert lo == pytest.approx(p.lo, rel=1e-6) and hi == pytest.approx(p.hi, rel=1e-6), (prop, lo, hi, p)
+    else:
+        assert p.contains(lo) and p.contains(hi), (prop, lo, hi, p)
+    if p.default is not None and not isinstance(p.default, str) and narrower != "percent":
+        assert rna.default * scale == pytest.approx(p.default, rel=1e-6), (prop, rna.default, p.default)

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .compile import compile_scene, scene_band_groups
+from .parameters import check_parameter
 from .estimates import (CameraSums, RadiometerSums, bin_counts, combine_round_sums,
                         image_variance, mean_stderr)
 from .scene import IOPGrid, IOPProfile, Scene, SceneError, scene_warnings
@@ -568,14 +569,8 @@ class Renderer:
         self.radiometer_samples = int(st.radiometer_samples if radiometer_samples is None else radiometer_samples)
         self.seed = int(st.seed if seed is None else seed)
         self.threads = int(st.threads if threads is None else threads)
-        for what, value, hi in (("samples", self.samples, 10**6),
-                                ("radiometer_samples", self.radiometer_samples, 10**10)):
-            if not 1 <= value <= hi:
-                raise SceneError("settings", what, f"must be in 1..{hi}, got {value}")
-        if not 0 <= self.threads <= 1024:
-            raise SceneError("settings", "threads", f"must be in 0..1024, got {self.threads}")
-        if not 0 <= self.seed <= 2**63 - 1:
-            raise SceneError("settings", "seed", f"must be in 0..{2**63 - 1} (2^63 - 1), got {self.seed}")
+        for key in ("samples", "radiometer_samples", "threads", "seed"):  # (overrides too)
+            check_parameter("settings", f"settings.{key}", getattr(self, key))
         check_memory(scene)
         self.target_error = _check_target(
             "settings", "target_error", st.target_error if target_error is Renderer._UNSET else target_error)
@@ -584,9 +579,7 @@ class Renderer:
             st.noise_threshold if noise_threshold is Renderer._UNSET else noise_threshold)
         self.adaptive_min_samples = int(st.adaptive_min_samples if adaptive_min_samples is None
                                         else adaptive_min_samples)
-        if not 1 <= self.adaptive_min_samples <= 10**6:
-            raise SceneError("settings", "adaptive_min_samples",
-                             f"must be in 1..1000000, got {self.adaptive_min_samples}")
+        check_parameter("settings", "settings.adaptive_min_samples", self.adaptive_min_samples)
         names = {r.name for r in scene.all_radiometers()}
         self.radiometer_targets = {}
         for name, value in (radiometer_targets or {}).items():

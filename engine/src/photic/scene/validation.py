@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ..parameters import check_parameter
 from .checks import (
     CAMERA_TYPES, FILTER_TYPES, INTEGRATORS, MAX_ARRAY_RADIOMETERS, MAX_COMPONENTS,
     MAX_COORDINATE_M, MAX_DISTRIBUTION_BINS, MAX_HG_G, MAX_SOURCE, PHASE_FUNCTION_PARAMS,
@@ -151,8 +152,8 @@ def scene_warnings(s: Scene) -> list[str]:
 
 
 def _validate_band(label: str, band: Band) -> None:
-    _check_real(label, "center_nm", band.center_nm, 0, 1e6, lo_open=True)
-    _check_real(label, "width_nm", band.width_nm, 1e-3, 1e6)
+    check_parameter(label, "band.center_nm", band.center_nm)
+    check_parameter(label, "band.width_nm", band.width_nm)
 
 
 def _validate_material(key: Any, material: Material, nbands: int) -> None:
@@ -485,7 +486,7 @@ def _phase_text(p: PhaseFunction) -> str:
 
 def _validate_water(label: str, w: WaterBody, nbands: int, materials: dict) -> None:
     _check_choice(label, "type", w.type, WATER_TYPES)
-    _check_real(label, "ior", w.ior, 1.0)
+    check_parameter(label, "water.ior", w.ior)
     if isinstance(w.iops, IOPProfile):
         _validate_profile(label, w.iops, nbands)
     elif isinstance(w.iops, IOPGrid):
@@ -658,18 +659,13 @@ def _validate_radiometer_array(label: str, a: RadiometerArray) -> None:
 
 def _validate_settings(s: Settings) -> None:
     _check_choice("settings", "integrator", s.integrator, INTEGRATORS)
-    _check_int("settings", "samples", s.samples, 1, 1_000_000)
-    _check_int("settings", "radiometer_samples", s.radiometer_samples, 1, 10**10)
-    _check_int("settings", "seed", s.seed, 0, 2**63 - 1)
-    _check_int("settings", "max_depth", s.max_depth, 1, 100_000)
-    _check_int("settings", "threads", s.threads, 0, 1024)
-    _check_int("settings", "beam_max_level", s.beam_max_level, 0, 10)
+    for key in ("samples", "radiometer_samples", "seed", "max_depth", "threads", "beam_max_level",
+                "adaptive_min_samples"):
+        check_parameter("settings", f"settings.{key}", getattr(s, key))
     if s.forward_cone_deg != "auto":
-        _check_real("settings", "forward_cone_deg", s.forward_cone_deg, 0.0, 30.0)
-    if s.target_error is not None:
-        _check_real("settings", "target_error", s.target_error, 0.0, 1.0, lo_open=True, hi_open=True)
-    if s.noise_threshold is not None:
-        _check_real("settings", "noise_threshold", s.noise_threshold, 0.0, 1.0, lo_open=True, hi_open=True)
-    _check_int("settings", "adaptive_min_samples", s.adaptive_min_samples, 1, 1_000_000)
+        check_parameter("settings", "settings.forward_cone_deg", s.forward_cone_deg)
+    for key in ("target_error", "noise_threshold"):
+        if getattr(s, key) is not None:
+            check_parameter("settings", f"settings.{key}", getattr(s, key))
 
 
