@@ -100,6 +100,7 @@ class DisplayStream:
     MIN_INTERVAL_S, MAX_INTERVAL_S = 0.25, 0.5
     ERROR_INTERVAL_S = 2.0
     ERROR_STRIDE = 8  # the noise figure from every 8th row and column (32k pixels at 1080p)
+    BLOCK_ROWS = 64  # rows converted at a time: small temporaries, the engine's lock held briefly
 
     def __init__(self, renderer, camera: str, size: tuple[int, int], bands):
         self.renderer, self.camera, self.bands = renderer, camera, bands
@@ -115,8 +116,6 @@ class DisplayStream:
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._loop, name="photic-display", daemon=True)
         self._thread.start()
-
-    BLOCK_ROWS = 64  # rows converted at a time: small temporaries, the engine's lock held briefly
 
     def _loop(self) -> None:
         interval, last_error = self.MIN_INTERVAL_S, -1e9
@@ -212,10 +211,9 @@ def render_passes(scene) -> list[tuple[str, str, str]]:
     return out
 
 
-def image_passes(image, bands, denoise: bool = False) -> dict:
-    """The Combined, component and variance passes of an engine ``ImageResult``; with its
-    denoising guides the Denoising Albedo and Normal passes, and with ``denoise`` the Combined
-    pass denoised by OpenImageDenoise and the noisy one as Noisy Image."""
+def image_passes(image, bands) -> dict:
+    """The Combined, component and variance passes of an engine ``ImageResult``, and with its
+    denoising guides the Denoising Albedo and Normal passes."""
     out = {"Combined": bandmod.bands_to_rgba(image.mean, bands)}
     for name, comp in COMPONENT_PASSES:
         if comp in image.components:
@@ -225,14 +223,18 @@ def image_passes(image, bands, denoise: bool = False) -> dict:
     if albedo is not None:
         out[ALBEDO_PASS] = np.clip(bandmod.bands_to_rgba(albedo, bands)[:, :, :3], 0.0, 1.0)
         out[NORMAL_PASS] = np.asarray(image.normal, np.float32)
-    if denoise:
-        from photic.denoise import denoise_rgb
-        noisy = out["Combined"]
-        clean = np.ones_like(noisy)
-        clean[:, :, :3] = denoise_rgb(noisy[:, :, :3], out.get(ALBEDO_PASS), out.get(NORMAL_PASS))
-        out[NOISY_PASS] = noisy[:, :, :3].copy()
-        out["Combined"] = clean
     return out
+
+
+def denoise_passes(passes: dict) -> None:
+    """Combined denoised by OpenImageDenoise with the guides among ``passes``, the noisy one
+    kept as Noisy Image (in place; nothing changes when the denoiser raises)."""
+    from photic.denoise import denoise_rgb
+    noisy = passes["Combined"]
+    clean = np.ones_like(noisy)
+    clean[:, :, :3] = denoise_rgb(noisy[:, :, :3], passes.get(ALBEDO_PASS), passes.get(NORMAL_PASS))
+    passes[NOISY_PASS] = noisy[:, :, :3].copy()
+    passes["Combined"] = clean
 
 
 def image_relative_error(image) -> float | None:
@@ -547,8 +549,7 @@ class FinalRender:
                 self.fail(f"{len(report.failed)} work unit(s) failed on {address} (first: {key}: {why})")
             return  # cancelled: the partial image is kept
         img = final.images.get(camera.name) if camera else None
-        self.summary["samples"] = (img.samples if img is not None
-                                   else display.samples if display is not None else 0)
+        self.summary["samples"] = img.samples if img is not None else 0
         self.summary["stats"] = final.stats
         self._radiometers(photic, final, bscene)
         self.progress(1.0)
@@ -592,7 +593,7 @@ class FinalRender:
             elif cancel_at is not None and cancelled_rows is not None:
                 rows = cancelled_rows()
                 if rows is not None:
-                    write_rows(self._combined(result), rows)
+                    write_rows(self._pass(result, "Combined"), rows)
             engine.end_result(result)
 
     def _show(self, result, image, bands, t: float) -> None:
@@ -605,39 +606,38 @@ class FinalRender:
     def _write(self, result, image, bands, final: bool = False) -> dict:
         """Write an image's passes into the render result; ``final``: the finished render's,
         denoised when asked."""
-        layer = result.layers[0]
-        t0 = time.perf_counter()
-        denoise = final and getattr(self, "denoise", False)
-        try:
-            passes = image_passes(image, bands, denoise=denoise)
-        except Exception as exc:  # noqa: BLE001  (the denoiser failed: keep the render, noisy)
-            if not denoise:
-                raise
-            traceback.print_exc()
-            self.engine.report({"WARNING"}, f"Photic: denoising failed ({type(exc).__name__}: {exc}); "
-                                            f"the image is left noisy")
-            passes = image_passes(image, bands)
-        if NOISY_PASS in passes:
-            self.summary["denoise_s"] = time.perf_counter() - t0
+        passes = image_passes(image, bands)
+        if final and getattr(self, "denoise", False):
+            t0 = time.perf_counter()
+            try:
+                denoise_passes(passes)
+                self.summary["denoise_s"] = time.perf_counter() - t0
+            except Exception as exc:  # noqa: BLE001  (the denoiser failed: keep the render, noisy)
+                traceback.print_exc()
+                self.engine.report({"WARNING"}, f"Photic: denoising failed ({type(exc).__name__}: "
+                                                f"{exc}); the image is left noisy")
         for name, pixels in passes.items():
-            p = layer.passes.get(name) if hasattr(layer.passes, "get") else None
-            if p is None:
-                try:
-                    p = layer.passes[name]
-                except (KeyError, IndexError):
-                    continue
-            set_rect(p, pixels)
+            p = self._pass(result, name)
+            if p is not None:
+                set_rect(p, pixels)
         return passes
 
     @staticmethod
-    def _combined(result):
-        layer = result.layers[0]
-        return layer.passes.get("Combined") if hasattr(layer.passes, "get") else layer.passes["Combined"]
+    def _pass(result, name: str):
+        """A pass of the render result by name, None when it has none of that name (Blender's
+        passes collection, or a stand-in's dict)."""
+        passes = result.layers[0].passes
+        if hasattr(passes, "get"):
+            return passes.get(name)
+        try:
+            return passes[name]
+        except (KeyError, IndexError):
+            return None
 
     def _show_rows(self, result, frame, t: float) -> None:
         """A streamed update of the render view: the Combined pass only (the others are
         written once, at the end), from rows the display thread prepared."""
-        write_rows(self._combined(result), frame)
+        write_rows(self._pass(result, "Combined"), frame)
         self.engine.update_result(result)
         self.summary["updates"] += 1
         self.summary["update_times"].append(t)

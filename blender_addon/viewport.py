@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import threading
 import traceback
-import types
 
 import numpy as np
 
@@ -95,6 +94,23 @@ class ViewportRender:
         self.thread = threading.Thread(target=work, name="photic-viewport", daemon=True)
         self.thread.start()
 
+    FINISHED = 1 << 62  # the texture's version once it shows the finished render's image
+
+    def _next_frame(self, renderer, height: int):
+        """(display rows bottom first, version, samples) of what the texture does not show yet,
+        or None: the running sums while they change, then the finished render's image, which
+        holds the last pieces the sums, spent by then, no longer show."""
+        changed = renderer.changed_rows("viewport", self.texture_version)
+        got = renderer.total_sums("viewport", rows=(0, height)) if changed is not None else None
+        if got is not None:
+            return bandmod.total_to_rows(got.total, got.n, self.bands), changed[2], int(np.max(got.n))
+        done = self.final.get("result") if self.final is not None else None
+        if done is None or "viewport" not in done.images:
+            return None
+        self.final = None
+        img = done.images["viewport"]
+        return bandmod.bands_to_rgba(img.mean, self.bands)[::-1].reshape(-1, 4), self.FINISHED, img.samples
+
     def draw(self, engine, context, depsgraph) -> None:
         import gpu
         from gpu_extras.presets import draw_texture_2d
@@ -113,18 +129,9 @@ class ViewportRender:
             engine.update_stats("", f"Photic: {self.message}")
         renderer = self.renderer
         if renderer is not None:
-            changed = renderer.changed_rows("viewport", self.texture_version)
-            got = renderer.total_sums("viewport", rows=(0, height)) if changed is not None else None
-            done = self.final.get("result") if self.final is not None else None
-            if got is None and done is not None and "viewport" in done.images:
-                # The render ended: its image holds the last pieces the sums no longer show.
-                img = done.images["viewport"]
-                self.final = None
-                rows = bandmod.bands_to_rgba(img.mean, self.bands)[::-1].reshape(-1, 4)
-                got, changed = types.SimpleNamespace(n=np.asarray(img.samples)), (0, height, 1 << 62)
-            elif got is not None:
-                rows = bandmod.total_to_rows(got.total, got.n, self.bands)
-            if got is not None:
+            frame = self._next_frame(renderer, height)
+            if frame is not None:
+                rows, version, samples = frame
                 scene = depsgraph.scene_eval
                 if scene.photic.auto_exposure:  # display only: the net exposure is the image's
                     stops = bandmod.auto_exposure(rows)
@@ -132,9 +139,8 @@ class ViewportRender:
                         rows[:, :3] *= 2.0 ** (stops - scene.view_settings.exposure)
                 buf = gpu.types.Buffer("FLOAT", rows.size, rows.ravel())
                 self.texture = gpu.types.GPUTexture((width, height), format="RGBA16F", data=buf)
-                self.texture_version = changed[2]
-                self.texture_samples = int(np.max(got.n))
-                engine.update_stats("", f"Photic: sample {self.texture_samples}/{renderer.samples}")
+                self.texture_version, self.texture_samples = version, samples
+                engine.update_stats("", f"Photic: sample {samples}/{renderer.samples}")
             if (self.thread is not None and self.thread.is_alive()) or \
                     (self.final is not None and self.final.get("result") is not None):
                 engine.tag_redraw()  # (until the finished render's image is shown)

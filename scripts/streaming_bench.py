@@ -131,7 +131,7 @@ def main(argv=None) -> int:
     preps = [p for on, _ in runs for p in on.get("display_prep_s", [])]
     ratios = [on["time_s"] / off["time_s"] for on, off in runs]
 
-    scene = open_scene()
+    open_scene()
     engine = EscEngine(args.esc)
     esc = final_render.FinalRender(engine, bpy.context.evaluated_depsgraph_get()).run()
     back = time.perf_counter() - engine.pressed

@@ -9,11 +9,9 @@ from __future__ import annotations
 
 import copy
 import json
-import math
 import subprocess
 import sys
 
-import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st

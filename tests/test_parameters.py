@@ -6,7 +6,6 @@ five places, ior >= 1 in the engine but [1, 2] in the add-on, a band centre > 0 
 from __future__ import annotations
 
 import json
-import math
 import re
 from importlib import resources
 from pathlib import Path

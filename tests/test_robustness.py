@@ -5,10 +5,6 @@ the right behaviour that replaced it."""
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -296,11 +292,7 @@ def test_peers_that_are_no_dask_scheduler_give_a_message_not_a_hang(kind, tmp_pa
         srv = None
     else:
         srv, port = _serve(http400 if kind == "http400" else silent)
-    job = tmp_path / "job.json"
-    scene = tmp_path / "s.json"
-    scene.write_text(json.dumps(small()))
-    job.write_text(json.dumps({"photic_job": 1, "name": "j", "inputs": [str(scene)]}))
-    from photic.distributed import SchedulerError, load_job
+    from photic.distributed import SchedulerError
     from photic.distributed.runner import connect_scheduler
     t0 = time.perf_counter()
     with pytest.raises(SchedulerError):

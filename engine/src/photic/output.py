@@ -22,8 +22,10 @@ COMPONENT_DESCRIPTIONS = {
 IMAGE_COMPONENTS = COMPONENTS[:3]
 
 
-def _safe(name: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
+def _safe(name: str, limit: int = 200) -> str:
+    """A name as part of a file name: other characters as '_', at most ``limit`` of them (a
+    file name has at most 255 bytes)."""
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)[:limit]
 
 
 def write_exr(path, result: RenderResult, camera: str) -> Path:
@@ -104,13 +106,13 @@ def output_names(scene_name: str, cameras) -> dict[str, str]:
     """The EXR file name of each camera, distinct: names that differ only in characters a file
     name cannot keep ('cam€' and 'cam£' both give 'cam_') get a short hash of the name."""
     import hashlib
-    base = {c: f"{_safe(scene_name)}_{_safe(c)}" for c in cameras}
+    base = {c: f"{_safe(scene_name, 100)}_{_safe(c, 100)}" for c in cameras}
     clash = {b for b in base.values() if list(base.values()).count(b) > 1}
     out = {}
     for c, b in base.items():
         if b in clash:
             b += "-" + hashlib.sha1(c.encode("utf-8")).hexdigest()[:8]
-        out[c] = b[:200] + ".exr"  # (a file name has at most 255 bytes)
+        out[c] = b + ".exr"
     return out
 
 
@@ -154,7 +156,7 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
     """Radiometer values and standard errors as CSV and JSON; returns both paths."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    stem = stem or _safe(result.scene_name)[:200]
+    stem = stem or _safe(result.scene_name)
     rows = radiometer_rows(result)
     csv_path = out_dir / f"{stem}_radiometers.csv"
     fields = ["name", "quantity", "x_m", "y_m", "z_m", "medium", "band", "center_nm", "bin",
@@ -207,7 +209,7 @@ def write_outputs(out_dir, result: RenderResult) -> dict[str, list[Path]]:
         written["images"].append(write_exr(out_dir / names[cam], result, cam))
     if result.radiometers:
         written["tables"].extend(write_radiometer_tables(out_dir, result))
-        derived = write_derived_table(out_dir / f"{_safe(result.scene_name)[:200]}_derived.csv", result)
+        derived = write_derived_table(out_dir / f"{_safe(result.scene_name)}_derived.csv", result)
         if derived is not None:
             written["tables"].append(derived)
     return written

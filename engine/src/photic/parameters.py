@@ -38,40 +38,30 @@ class Parameter:
         return self.hi is None or (x < self.hi if self.hi_open else x <= self.hi)
 
 
-def _p(*args, **kw) -> Parameter:
-    return Parameter(*args, **kw)
-
-
 PARAMETERS: dict[str, Parameter] = {p.key: p for p in [
-    _p("settings.samples", "samples per pixel", 16, 1, 1_000_000,
+    Parameter("settings.samples", "samples per pixel", 16, 1, 1_000_000,
        "camera samples per pixel (with noise_threshold: the most a pixel takes)", integer=True),
-    _p("settings.radiometer_samples", "samples", 65536, 1, 10**10,
+    Parameter("settings.radiometer_samples", "samples", 65536, 1, 10**10,
        "samples per radiometer (with target_error: the most one may take)", integer=True),
-    _p("settings.seed", "", 0, 0, 2**63 - 1, "random seed: the same seed gives the same numbers "
+    Parameter("settings.seed", "", 0, 0, 2**63 - 1, "random seed: the same seed gives the same numbers "
        "on any number of threads", integer=True),
-    _p("settings.threads", "", 0, 0, 1024, "CPU threads, 0 = all cores", integer=True),
-    _p("settings.max_depth", "events", 256, 1, 100_000, "largest number of scattering or "
+    Parameter("settings.threads", "", 0, 0, 1024, "CPU threads, 0 = all cores", integer=True),
+    Parameter("settings.max_depth", "events", 256, 1, 100_000, "largest number of scattering or "
        "reflection events of a path", integer=True),
-    _p("settings.beam_max_level", "levels", 5, 0, 10, "levels of adaptive subdivision of a "
+    Parameter("settings.beam_max_level", "levels", 5, 0, 10, "levels of adaptive subdivision of a "
        "surface triangle's beam", integer=True),
-    _p("settings.adaptive_min_samples", "samples per pixel", 16, 1, 1_000_000,
+    Parameter("settings.adaptive_min_samples", "samples per pixel", 16, 1, 1_000_000,
        "samples per pixel before a pixel may stop at the noise threshold", integer=True),
-    _p("settings.forward_cone_deg", "deg", "auto", 0.0, 30.0,
+    Parameter("settings.forward_cone_deg", "deg", "auto", 0.0, 30.0,
        "half-angle of the forward-scattering cone kept in the beams, or auto"),
-    _p("settings.target_error", "relative", None, 0.0, 1.0,
+    Parameter("settings.target_error", "relative", None, 0.0, 1.0,
        "relative standard error at which a radiometer stops", lo_open=True, hi_open=True),
-    _p("settings.noise_threshold", "relative", None, 0.0, 1.0,
+    Parameter("settings.noise_threshold", "relative", None, 0.0, 1.0,
        "relative standard error at which a pixel stops", lo_open=True, hi_open=True),
-    _p("water.ior", "", 1.34, 1.0, 2.0, "refractive index of the water relative to air"),
-    _p("band.center_nm", "nm", 550.0, 200.0, 3000.0, "centre wavelength of a band"),
-    _p("band.width_nm", "nm", 10.0, 0.001, 1000.0, "width of a band"),
+    Parameter("water.ior", "", 1.34, 1.0, 2.0, "refractive index of the water relative to air"),
+    Parameter("band.center_nm", "nm", 550.0, 200.0, 3000.0, "centre wavelength of a band"),
+    Parameter("band.width_nm", "nm", 10.0, 0.001, 1000.0, "width of a band"),
 ]}
-
-
-def range_text(p: Parameter) -> str:
-    """'an integer in [1, 1000000]', 'a finite number in (0, 1)': as SceneErrors say it."""
-    from .scene.checks import _range_text
-    return _range_text(p.lo, p.hi, p.lo_open, p.hi_open, p.integer)
 
 
 def check_parameter(obj: str, key: str, value: Any, field: str | None = None) -> None:

@@ -386,11 +386,10 @@ def sensor_warnings(core, scene: Scene) -> list[str]:
 @dataclass
 class DisplaySums:
     """Rows [first, first + len(total)) of a camera's running sums of the total (rows, W,
-    bands) with each pixel's samples (rows, W); ``version`` grows with every piece added."""
+    bands) with each pixel's samples (rows, W)."""
     total: np.ndarray
     n: np.ndarray
     first: int
-    version: int
 
 
 IMAGE_BLOCK_ROWS = 32  # image_result works on bands of rows: its temporaries stay in cache
@@ -619,18 +618,25 @@ class Renderer:
         Safe to call from another thread: passes are added under a lock, so the sums and the
         sample count always belong together."""
         with self._lock:
-            if camera not in self._cam_sums or not self._cam_done.get(camera) or camera in self._spent:
+            if self._live(camera) is None:
                 return None
             n = self._cam_done[camera]
             sums = self._cam_sums[camera].copy(stride)
         return image_result(camera, sums, n)
+
+    def _live(self, camera: str) -> CameraSums | None:
+        """A camera's sums while they are a display's to read (under the lock): after its
+        first piece, before they became its result."""
+        if camera in self._spent or not self._cam_done.get(camera):
+            return None
+        return self._cam_sums.get(camera)
 
     def changed_rows(self, camera: str, since: int = -1) -> tuple[int, int, int] | None:
         """(first, end, version): the rows of a camera that changed after version ``since``
         (all for -1), and the version they are at; None before its first pass or when nothing
         changed."""
         with self._lock:
-            if camera not in self._cam_sums or not self._cam_done.get(camera) or camera in self._spent:
+            if self._live(camera) is None:
                 return None
             version = self._cam_version.get(camera, 0)
             if version <= since:
@@ -640,23 +646,17 @@ class Renderer:
             changed = np.flatnonzero(self._cam_rows[camera] > since)
             return int(changed[0]), int(changed[-1]) + 1, version
 
-    def total_sums(self, camera: str, since: int = -1, rows: tuple[int, int] | None = None) -> DisplaySums | None:
+    def total_sums(self, camera: str, rows: tuple[int, int] | None = None) -> DisplaySums | None:
         """What a display needs of a camera while it renders, copied under the lock: the sums
-        of the total and the samples of ``rows`` (first, end), or of the rows that changed
-        after version ``since`` (all for -1); None before its first pass or when nothing
-        changed."""
-        if rows is None:
-            changed = self.changed_rows(camera, since)
-            if changed is None:
-                return None
-            rows = changed[:2]
+        of the total and the samples of ``rows`` (first, end; all by default); None before its
+        first pass. Which rows changed: ``changed_rows``."""
         with self._lock:
-            if camera not in self._cam_sums or not self._cam_done.get(camera) or camera in self._spent:
+            sums = self._live(camera)
+            if sums is None:
                 return None
-            sums = self._cam_sums[camera]
-            r = slice(*rows)
-            return DisplaySums(np.ascontiguousarray(sums.s[r, :, 0, :]), sums.n[r].copy(), rows[0],
-                               self._cam_version.get(camera, 0))
+            r = slice(*rows) if rows is not None else slice(None)
+            return DisplaySums(np.ascontiguousarray(sums.s[r, :, 0, :]), sums.n[r].copy(),
+                               rows[0] if rows is not None else 0)
 
     def _camera_passes(self) -> list[tuple[int, int]]:
         return camera_passes(self.samples)
