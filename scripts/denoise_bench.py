@@ -58,9 +58,10 @@ def main(argv=None) -> int:
 
     t0 = time.perf_counter()
     ref = render(scene(), samples=args.ref, seed=1000, threads=args.threads).images["under"]
-    print(f"reference: {args.ref} spp in {time.perf_counter() - t0:.0f} s", flush=True)
     m = float(ref.mean.mean())
     noise2 = float(np.mean(ref.variance))
+    print(f"reference: {args.ref} spp in {time.perf_counter() - t0:.0f} s, its own noise (RMS standard "
+          f"error over the mean) {100 * math.sqrt(noise2) / m:.2f} %", flush=True)
     # Caustic lines: where the surface beams make most of the light and vary most from pixel to
     # pixel (the top quarter of the reference's relative detail).
     beams = ref.components["beam_surface"].sum(2)
@@ -90,6 +91,7 @@ def main(argv=None) -> int:
         c_clean, b_clean = caustic_figures(clean)
         rows.append(dict(spp=spp, time_s=t_render, denoise_s=t_denoise,
                          error_noisy=error(img.mean), error_denoised=error(clean),
+                         stderr_noisy=math.sqrt(float(np.mean(img.variance))) / m,
                          caustic_contrast_noisy=c_noisy, caustic_contrast_denoised=c_clean,
                          caustic_bias_noisy=b_noisy, caustic_bias_denoised=b_clean))
         print(f"  {spp:4d} spp: {t_render:6.1f} s, noisy {100 * rows[-1]['error_noisy']:5.1f} %, "
@@ -103,16 +105,18 @@ def main(argv=None) -> int:
 
     print(f"\nstepped pool, underwater view {args.size[0]}x{args.size[1]}, hybrid, {args.threads} threads; "
           f"reference {args.ref} spp; caustic pixels {100 * caustic.mean():.0f} %")
-    print(f"{'spp':>5} {'time s':>7} {'noisy':>7} {'denoised':>9} {'noisy, equal t':>15} "
+    print(f"{'spp':>5} {'time s':>7} {'noisy':>7} {'its SE':>7} {'denoised':>9} {'noisy, equal t':>15} "
           f"{'caustic contrast n/d':>21} {'caustic bias n/d':>17}")
     for r in rows:
         print(f"{r['spp']:5d} {r['time_s'] + r['denoise_s']:7.1f} {100 * r['error_noisy']:6.1f}% "
+              f"{100 * r['stderr_noisy']:6.1f}% "
               f"{100 * r['error_denoised']:8.1f}% {100 * r['error_noisy_at_equal_time']:14.1f}% "
               f"{r['caustic_contrast_noisy']:10.2f} / {r['caustic_contrast_denoised']:.2f} "
               f"{100 * r['caustic_bias_noisy']:+7.1f}% / {100 * r['caustic_bias_denoised']:+.1f}%")
     if args.json:
         with open(args.json, "w") as f:
             json.dump(dict(size=list(args.size), ref_spp=args.ref, threads=args.threads,
+                           reference_noise=math.sqrt(noise2) / m,
                            caustic_fraction=float(caustic.mean()), rows=rows), f, indent=1)
     return 0
 
