@@ -35,135 +35,9 @@ struct SourceTri {
 
 }  // namespace
 
-// A grid's unit coefficients with the forward cone's f, the free paths' majorant
-// s0 + sum_f s1[f] rho_f, and the water's bounds (majorant, smallest beam attenuation,
-// beam-scattering rate, MIS weights) widened to every density in the grid.
-// c(x) = c_base + sum_f rho_f c_unit,f with rho_f >= 0 and c_unit,f >= 0.
-void Scene::set_grid_coefficients(Water& w) const {
-    VoxelGrid& g = *w.grid;
-    const int nf = w.grid_fields();
-    for (WaterLayer& U : w.grid_units) {
-        U.b_path = Spectrum();
-        U.comp_b_path.assign(w.components.size(), Spectrum());
-        for (size_t ci = 0; ci < w.components.size(); ++ci)
-            for (int k = 0; k < nbands; ++k) {
-                U.comp_b_path[ci].v[k] = U.comp_b[ci].v[k] * (1.0 - w.components[ci].f);
-                U.b_path.v[k] += U.comp_b_path[ci].v[k];
-            }
-        for (int k = 0; k < nbands; ++k) {
-            U.c_beam.v[k] = U.a.v[k] + U.b_path.v[k];
-            U.c_path.v[k] = U.c_beam.v[k];
-        }
-    }
-    w.grid_scatter_fields = 0;
-    w.grid_comp_fields.assign(w.components.size(), 0u);
-    for (int f = 0; f < nf; ++f)
-        for (size_t ci = 0; ci < w.components.size(); ++ci)
-            for (int k = 0; k < nbands; ++k)
-                if (w.grid_units[f].comp_b[ci].v[k] > 0.0) {
-                    w.grid_comp_fields[ci] |= 1u << f;
-                    w.grid_scatter_fields |= 1u << f;
-                }
-    // Over the base's layers (a depth profile under the grid) and bands.
-    w.grid_s0 = 0.0;
-    for (int f = 0; f < nf; ++f) {
-        w.grid_s1[f] = 0.0;
-        for (int k = 0; k < nbands; ++k) w.grid_s1[f] = std::max(w.grid_s1[f], w.grid_units[f].b_path.v[k]);
-    }
-    double rmin[VoxelGrid::kMaxFields], rmax[VoxelGrid::kMaxFields];
-    for (int f = 0; f < nf; ++f) {
-        rmin[f] = g.rho_min[f];
-        rmax[f] = g.rho_max[f];
-    }
-    double cmean = 0.0;
-    for (const WaterLayer& B : w.layers) {
-        double c_beam_lo[kMaxBands], c_path_hi[kMaxBands];  // at the least and most densities
-        std::copy_n(B.c_beam.v.data(), nbands, c_beam_lo);
-        std::copy_n(B.c_path.v.data(), nbands, c_path_hi);
-        w.grid_add_bands(rmin, &WaterLayer::c_beam, nbands, c_beam_lo);
-        w.grid_add_bands(rmax, &WaterLayer::c_path, nbands, c_path_hi);
-        double layer_mean = 0.0;
-        for (int k = 0; k < nbands; ++k) {
-            w.grid_s0 = std::max(w.grid_s0, B.b_path.v[k]);
-            w.c_beam_min = std::min(w.c_beam_min, c_beam_lo[k]);
-            w.a_min = std::min(w.a_min, B.a.v[k]);
-            layer_mean += c_path_hi[k] / nbands;
-        }
-        cmean = std::max(cmean, layer_mean);
-    }
-    w.majorant = std::max(w.majorant, w.grid_majorant(rmax));
-    for (const WaterLayer& B : w.layers)  // b at the densest voxel of every field
-        for (int k = 0; k < nbands; ++k) {
-            double b = B.b.v[k];
-            for (int f = 0; f < nf; ++f)
-                for (const Spectrum& cb : w.grid_units[f].comp_b) b += rmax[f] * cb.v[k];
-            w.b_max = std::max(w.b_max, b);
-        }
-    if (!(w.c_path_mean > 0.0)) w.c_path_mean = cmean;  // any rate > 0 is unbiased
-    for (size_t ci = 0; ci < w.components.size(); ++ci) {
-        double b = 0.0;
-        for (int k = 0; k < nbands; ++k)
-            for (const WaterLayer& U : w.grid_units) b += U.comp_b[ci].v[k];
-        w.components[ci].weight += b;
-        w.mis_bsum += b;
-        w.mis_wsum += b;
-    }
-}
-
 void Scene::set_forward_cone(double half_angle) {
     cone_half_angle = std::max(0.0, half_angle);
-    double xc = 1.0 - std::cos(cone_half_angle);
-    for (auto& w : waters) {
-        for (auto& c : w.components) c.f = cone_half_angle > 0.0 ? phases[c.phase].cdf(xc) : 0.0;
-        w.majorant = 0.0;
-        w.c_beam_min = kInf;
-        w.b_max = 0.0;
-        for (const auto& L : w.layers)
-            for (int k = 0; k < nbands; ++k) w.b_max = std::max(w.b_max, L.b.v[k]);
-        double c_mean_min = kInf;
-        for (auto& L : w.layers) {
-            L.b_path = Spectrum();
-            L.comp_b_path.assign(w.components.size(), Spectrum());
-            for (size_t ci = 0; ci < w.components.size(); ++ci) {
-                const double f = w.components[ci].f;
-                for (int k = 0; k < nbands; ++k) {
-                    L.comp_b_path[ci].v[k] = L.comp_b[ci].v[k] * (1.0 - f);
-                    L.b_path.v[k] += L.comp_b_path[ci].v[k];
-                }
-            }
-            L.c_path_mean = 0.0;
-            L.a_min = L.a.v[0];
-            L.majorant = 0.0;
-            for (int k = 0; k < nbands; ++k) {
-                L.majorant = std::max(L.majorant, L.b_path.v[k]);
-                w.majorant = std::max(w.majorant, L.b_path.v[k]);
-                L.c_beam.v[k] = L.a.v[k] + L.b_path.v[k];
-                L.c_path.v[k] = L.c_beam.v[k];
-                L.c_path_mean += L.c_path.v[k] / nbands;
-                L.a_min = std::min(L.a_min, L.a.v[k]);
-                w.c_beam_min = std::min(w.c_beam_min, L.c_beam.v[k]);
-            }
-            w.a_min = &L == &w.layers[0] ? L.a_min : std::min(w.a_min, L.a_min);
-            if (L.c_path_mean > 0.0) c_mean_min = std::min(c_mean_min, L.c_path_mean);
-        }
-        // Beam scattering along segments samples distances at this rate (any rate > 0 is
-        // unbiased); in stratified water the slowest layer's, so the weights stay bounded.
-        w.c_path_mean = !w.stratified() ? w.layers[0].c_path_mean : c_mean_min < kInf ? c_mean_min : 0.0;
-        // Beam-direction MIS: each component's share of all scattering (bands and layers).
-        w.mis_bsum = 0.0;
-        w.mis_wsum = 0.0;
-        for (size_t ci = 0; ci < w.components.size(); ++ci) {
-            double b = 0.0;
-            for (const auto& L : w.layers)
-                for (int k = 0; k < nbands; ++k) {
-                    b += L.comp_b[ci].v[k];
-                    w.mis_bsum += L.comp_b[ci].v[k];
-                }
-            w.components[ci].weight = b;
-            w.mis_wsum += b;
-        }
-        if (w.grid) set_grid_coefficients(w);
-    }
+    for (auto& w : waters) w.set_forward_cone(phases, cone_half_angle, nbands);
 }
 
 double Scene::beam_total_flux() const {
@@ -883,20 +757,10 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
         for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] / (a_eff * md);
         return true;
     }
-    const Water& w = waters[P.water];
-    if (!w.varying() || !exact) {
-        const Spectrum& c = w.layers[0].c_beam;
-        for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * std::exp(-c.v[k] * l) / (a_eff * md);
-    } else if (w.grid) {  // the beam's straight path from the surface (y - d l) to y through the voxels
-        double att[kMaxBands], r[VoxelGrid::kMaxFields];
-        w.grid->integral(y - d * l, y, l, r);
-        w.grid_transmittance(y.z - d.z * l, y.z, l, r, nbands, att);
-        for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * att[k] / (a_eff * md);
-    } else {  // the same through the layers
-        Spectrum tau;
-        w.add_optical_depth(&WaterLayer::c_beam, y.z - d.z * l, y.z, l, nbands, &tau);
-        for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * std::exp(-tau.v[k]) / (a_eff * md);
-    }
+    // Attenuated along the beam's straight path from the surface (y - d l) to y.
+    double att[kMaxBands];
+    waters[P.water].transmittance(y - d * l, y, l, nbands, att, exact);
+    for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] * att[k] / (a_eff * md);
     return true;
 }
 
@@ -935,26 +799,24 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool ex
             if (visible) {
                 out[n].d = fd;
                 out[n].l = l;
-                if (!w.varying() || !exact) {
-                    const Spectrum& c = w.layers[0].c_beam;
-                    for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * std::exp(-c.v[k] * l);
-                } else if (w.grid) {  // exp(-int c_beam dl) from the surface down through the voxels
-                    // Only the part of the ray between the heights where it may meet density
-                    // is walked (none if it meets none).
-                    double r[VoxelGrid::kMaxFields] = {}, z0 = -kInf, z1 = kInf;
+                // Attenuated from the surface down to x. In gridded water only the part of the
+                // ray between the heights where it may meet density is walked (none if it
+                // meets none: the shadow map of the beams' directions says).
+                double r[VoxelGrid::kMaxFields] = {};
+                const double* integral = nullptr;
+                if (w.grid && exact) {
+                    double z0 = -kInf, z1 = kInf;
                     if (i >= flat_shade_ok.size() || !flat_shade_ok[i] || flat_shade.meets(x, &z0, &z1)) {
                         const double za = std::max(x.z, z0), zb = std::min(ocean_z, z1);
                         const double la = (za - x.z) / (-fd.z), lb = (zb - x.z) / (-fd.z);
                         w.grid->integral(x - fd * lb, x - fd * la, lb - la, r);
                     }
-                    double att[kMaxBands];
-                    w.grid_transmittance(ocean_z, x.z, l, r, nbands, att);
-                    for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * att[k];
-                } else {  // the same through the layers
-                    Spectrum tau;
-                    w.add_optical_depth(&WaterLayer::c_beam, ocean_z, x.z, l, nbands, &tau);
-                    for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * std::exp(-tau.v[k]);
+                    integral = r;
                 }
+                const Vec3 entry(x.x - fd.x * l, x.y - fd.y * l, ocean_z);
+                double att[kMaxBands];
+                w.transmittance(entry, x, l, nbands, att, exact, integral);
+                for (int k = 0; k < nbands; ++k) out[n].e.v[k] = flat_e0[i].v[k] * att[k];
                 ++n;
             }
         }

@@ -62,25 +62,15 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
     const Vec3 x = o + d * t;
     int n = beams_at(x, medium, beams, kMaxBeams);
     if (n == 0) return;
-    // The local scattering at x (in a grid the base's plus each field's density rx[f] times
-    // its unit's) and the attenuation back to o (through the layers or voxels crossed).
-    const WaterLayer& L = w.layer_at(x.z);
-    double rx[VoxelGrid::kMaxFields];
-    const bool in_field = w.grid && w.grid->at(x, rx);
+    // The local scattering at x and the attenuation back to o (through the layers or voxels
+    // crossed; gridded water: the caller's walk along the segment will tell).
+    const Water::Point local = w.at(x);
     double att[kMaxBands];
-    if (deferred_t) {  // gridded water only: the caller's walk along the segment will tell
+    if (deferred_t) {
         *deferred_t = t;
         for (int kb = 0; kb < nbands; ++kb) att[kb] = 1.0;
-    } else if (!w.varying()) {
-        for (int kb = 0; kb < nbands; ++kb) att[kb] = std::exp(-L.c_path.v[kb] * t);
-    } else if (w.grid) {
-        double r[VoxelGrid::kMaxFields];
-        w.grid->integral(o, x, t, r);
-        w.grid_transmittance(o.z, x.z, t, r, nbands, att);
     } else {
-        Spectrum tau;
-        w.add_optical_depth(&WaterLayer::c_path, o.z, x.z, t, nbands, &tau);
-        for (int kb = 0; kb < nbands; ++kb) att[kb] = std::exp(-tau.v[kb]);
+        w.transmittance(o, x, t, nbands, att);
     }
     const double cone_x = 1.0 - std::cos(cone_half_angle);
     const size_t nc = w.components.size();
@@ -89,20 +79,8 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
         if (xs < cone_x) continue;  // inside the cone the light stays in the beam
         double pv[16];
         for (size_t ci = 0; ci < nc; ++ci) pv[ci] = phases[w.components[ci].phase].eval(xs);
-        // b p per band: the base's components, then each field's (bands innermost: vectorised).
-        double bp[kMaxBands] = {};
-        for (size_t ci = 0; ci < nc; ++ci) {
-            const double* __restrict u = L.comp_b[ci].v.data();
-            for (int kb = 0; kb < nbands; ++kb) bp[kb] += u[kb] * pv[ci];
-        }
-        if (in_field)
-            for (int f = 0; f < w.grid_fields(); ++f)
-                if (rx[f] > 0.0)
-                    for (size_t ci = 0; ci < nc; ++ci) {
-                        if (!(w.grid_comp_fields[ci] >> f & 1u)) continue;
-                        const double* __restrict u = w.grid_units[f].comp_b[ci].v.data();
-                        for (int kb = 0; kb < nbands; ++kb) bp[kb] += rx[f] * u[kb] * pv[ci];
-                    }
+        double bp[kMaxBands] = {};  // b p per band
+        w.add_scattering(local, pv, nbands, bp);
         for (int kb = 0; kb < nbands; ++kb) out->v[kb] += att[kb] * bp[kb] * beams[j].e.v[kb] / pdf;
     }
 }
@@ -156,37 +134,8 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
     Spectrum beta = Spectrum::constant(1.0);
     int depth = 0;
     c.paths++;
-    // Absorption is applied lazily: since beta last carried it, `pending` metres travelled in
-    // homogeneous water (factor exp(-a s)), or the absorption optical depth `tau_a` per band
-    // in stratified water, added exactly segment by segment through the layers crossed
-    // (factor exp(-tau_a)). Light is scored in water only by the beam terms (which apply it
-    // themselves); Russian roulette uses a bound meanwhile.
-    double pending = 0.0;
-    Spectrum tau_a;
     thread_local WaterLayer grid_local_tls;  // a grid's coefficients at the current collision (reused)
-    WaterLayer& grid_local = grid_local_tls;  // (the thread-local address looked up once per path)
-    auto absorbed = [&](const Water& w, int k) {  // the factor not yet carried by beta
-        return w.varying() ? std::exp(-tau_a.v[k]) : std::exp(-w.layers[0].a.v[k] * pending);
-    };
-    auto absorbed_bound = [&](const Water& w) {   // >= absorbed(w, k) in every band
-        if (!w.varying()) return std::exp(-w.a_min * pending);
-        double t = tau_a.v[0];
-        for (int k = 1; k < nb; ++k) t = std::min(t, tau_a.v[k]);
-        return std::exp(-t);
-    };
-    auto travel = [&](const Water& w, const Vec3& from, const Vec3& dir, double t) {  // layers
-        w.add_optical_depth(&WaterLayer::a, from.z, from.z + dir.z * t, t, nb, &tau_a);
-    };
-    auto flush = [&](const Water& w) {
-        if (w.varying()) {
-            for (int k = 0; k < nb; ++k) beta.v[k] *= std::exp(-tau_a.v[k]);
-            for (int k = 0; k < nb; ++k) tau_a.v[k] = 0.0;  // (only the bands in use are read)
-            return;
-        }
-        if (pending > 0.0)
-            for (int k = 0; k < nb; ++k) beta.v[k] *= std::exp(-w.layers[0].a.v[k] * pending);
-        pending = 0.0;
-    };
+    MediumWalk walk(nb, &grid_local_tls);     // (the thread-local address looked up once per path)
     const double cone_x = 1.0 - std::cos(cone_half_angle);
     // The reflected beams in the air count the sun that reaches a point in the air by one
     // reflection on the water: from a vertex where they were looked up (1), a path that
@@ -194,39 +143,16 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
     // found light they already counted.
     int reflect_state = reflect_covered ? 1 : 0;
     double bv_weight = first_beam_weight;  // MIS weight of this segment's beam scattering
-    // Gridded water (per segment): the walk along it, and its beam term waiting for it.
-    std::optional<VoxelGrid::Cursor> gcursor;
-    double t_beam = -1.0;
-    double r_beam[VoxelGrid::kMaxFields] = {}, grho[VoxelGrid::kMaxFields] = {};  // per field
-    bool beam_read = false;
-    Spectrum beam_wait;
 
     for (;;) {
         Hit h;
         double t_hit;
         if (medium >= 0) {
             const Water& w = waters[medium];
-            const bool strat = w.varying();
-            const WaterLayer* L = &w.layers[0];  // the layer at the tentative collision
             bool scattered = false;
             double t_cur = 0.0;
-            double dt = kInf;
             bool clipped = false;
-            // Distance from o + d t_cur to the next tentative collision: the water's majorant,
-            // or in stratified water each layer's own (regional tracking through the layers).
-            int lc = 0;
-            // A grid is walked once per segment, voxel by voxel (VoxelGrid::Cursor): the free
-            // paths are sampled exactly along the walk against the local majorant over the
-            // bands, s0 + s1 rho (regular tracking: null collisions only where the bands'
-            // coefficients differ), and the density integral it accumulates gives the
-            // absorption to the segment's end and the attenuation to the beam term's point.
-            if (w.grid) {
-                gcursor.emplace(*w.grid, o, d);
-                // The walk's first column sums are fetched while the ray is intersected (the
-                // walk waits on them otherwise, once per segment: 4-8 % of the plume example).
-                gcursor->prefetch(3);
-            }
-            double t_clip = kInf;  // gridded, clipped: the ray was intersected up to here only
+            walk.begin(w, o, d);
             // A clipped ray's rest, from t on (what lies beyond the bound was unknown).
             auto intersect_rest = [&](double t) {
                 h = intersect(o + d * t, d);
@@ -235,93 +161,29 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 if (h.valid) h.t += t;
                 t_hit = h.valid ? h.t : kInf;
             };
-            auto draw_depth = [&]() { return -std::log(1.0 - rng.uniform()); };
-            auto flight = [&](double xi) {
-                if (w.grid) {
-                    for (;;) {  // on to the collision, reading the integral at t_beam on the way
-                        if (t_beam >= 0.0 && !beam_read && t_beam <= gcursor->position()) {
-                            std::copy_n(gcursor->integral(), VoxelGrid::kMaxFields, r_beam);
-                            beam_read = true;
-                        }
-                        const bool to_beam = t_beam >= 0.0 && !beam_read;
-                        if (gcursor->march(w.grid_s0, w.grid_s1, &xi, to_beam ? t_beam : clipped ? t_clip : t_hit, grho))
-                            return gcursor->position() - t_cur;
-                        if (clipped && !to_beam) {
-                            // (Rounding only: the depth reaches xi by t_clip.) The rest of the ray,
-                            // then on to the collision.
-                            intersect_rest(gcursor->position());
-                            continue;
-                        }
-                        if (!to_beam) return kInf;  // none before the segment's end
-                    }
-                }
-                return strat ? w.free_flight(o.z + d.z * t_cur, d.z, xi, &lc) : xi / w.majorant;
-            };
-            // Grid: the beam term of this segment waits for the walk (deferred to its point
-            // t_beam); settle() adds it and the absorption up to t_end (kInf: none needed).
-            // The cursor only walks on: the two integrals are read in the order of their points.
-            t_beam = -1.0;
-            beam_read = false;
-            auto settle = [&](double t_end) {
-                if (!w.grid) return;
-                double r_end[VoxelGrid::kMaxFields] = {};
-                const bool end = t_end < kInf;
-                const bool beam = t_beam >= 0.0 && !beam_read;
-                if (beam && (!end || t_beam <= t_end)) std::copy_n(gcursor->value(t_beam), VoxelGrid::kMaxFields, r_beam);
-                // (Every walk stops at the segment's end t_hit, so t_end is at or beyond the
-                // position but for rounding: at a collision t_cur sums the flights.)
-                if (end) std::copy_n(gcursor->value(t_end), VoxelGrid::kMaxFields, r_end);
-                if (beam && end && t_beam > t_end) std::copy_n(gcursor->value(t_beam), VoxelGrid::kMaxFields, r_beam);
-                if (t_beam >= 0.0) {
-                    double att[kMaxBands];
-                    w.grid_transmittance(o.z, o.z + d.z * t_beam, t_beam, r_beam, nb, att);
-                    for (int kb = 0; kb < nb; ++kb) out.beam_volume.v[kb] += beam_wait.v[kb] * att[kb];
-                    t_beam = -1.0;
-                }
-                if (end) w.grid_absorption(o.z, o.z + d.z * t_end, t_end, r_end, nb, &tau_a);
-            };
-            // Path tracing casts the ray only up to the first tentative collision: short rays are
-            // cheaper, and most flights in water end in the volume. A grid's walk cannot find
-            // that collision before the ray is cast (it would go on past the surface or the
-            // floor and back: a third of the walked length in the plume example), but the
-            // tracked coefficient s0 + s1 rho is at least s0 everywhere (rho >= 0), so the
-            // collision lies within xi / s0: the ray is cast that far (a few percent of the
-            // plume example's render against casting it whole), and the walk stops at its hit.
-            const bool short_ray = !hybrid && w.majorant > 0.0 && (!w.grid || w.grid_s0 > 0.0);
+            // Path tracing casts the ray only up to the first tentative collision (the
+            // medium's bound for it); the beam terms need the whole length.
+            const bool short_ray = !hybrid && walk.can_clip();
             t_hit = kInf;
-            double xi0 = -1.0;  // a grid's first depth, drawn before the ray is cast
-            if (w.majorant > 0.0 && !w.grid) dt = flight(draw_depth());
-            if (short_ray && w.grid) {
-                xi0 = draw_depth();
-                t_clip = xi0 / w.grid_s0 * (1.0 + 1e-9) + 1e-9;  // (margin for the walk's rounding)
-                h = intersect(o, d, t_clip);
-                clipped = !h.valid;
-            } else if (short_ray) {
-                h = intersect(o, d, dt);
-                clipped = !h.valid;  // nothing before dt; what lies beyond is unknown
-            } else {
-                h = intersect(o, d);  // the beam terms and a grid's walk need the whole length
-            }
+            const double t_cast = walk.before_cast(rng, short_ray);
+            h = intersect(o, d, t_cast);
+            clipped = short_ray && !h.valid;  // nothing before t_cast; what lies beyond is unknown
             c.segments++;
             t_hit = h.valid ? h.t : kInf;
 
             if (hybrid && has_beams()) {
-                Spectrum I;
-                beam_scatter_along(o, d, t_hit, medium, rng, &I, w.grid ? &t_beam : nullptr);
-                if (w.grid)
-                    for (int kb = 0; kb < nb; ++kb) beam_wait.v[kb] = bv_weight * beta.v[kb] * absorbed(w, kb) * I.v[kb];
-                else
-                    for (int kb = 0; kb < nb; ++kb) out.beam_volume.v[kb] += bv_weight * beta.v[kb] * absorbed(w, kb) * I.v[kb];
+                Spectrum I, contribution;
+                beam_scatter_along(o, d, t_hit, medium, rng, &I, walk.beam_point());
+                for (int kb = 0; kb < nb; ++kb) contribution.v[kb] = bv_weight * beta.v[kb] * walk.absorbed(w, kb) * I.v[kb];
+                walk.add_beam(contribution, &out.beam_volume);
             }
             bv_weight = 1.0;
-            if (w.majorant > 0.0 && w.grid) dt = flight(xi0 >= 0.0 ? xi0 : draw_depth());  // after t_hit and t_beam are known
-
+            double dt = walk.first_flight(rng, t_hit, clipped, intersect_rest);
+            const WaterLayer* L = nullptr;  // the coefficients at the tentative collision (walk.collide)
             while (t_cur + dt < t_hit) {
                 t_cur += dt;
-                if (w.grid) L = &w.local_at_density(grho, o.z + d.z * t_cur, &grid_local, nb);
-                else if (strat) L = &w.layers[lc];
-                else pending += dt;
-                const double maj = w.grid ? w.grid_majorant(grho) : strat ? L->majorant : w.majorant;
+                double maj;
+                L = &walk.collide(t_cur, dt, &maj);
                 // Any probability fixed before the decision keeps the estimate unbiased;
                 // weighting by the (not yet absorbed) throughput keeps band weights tame.
                 double num = 0.0, den = 0.0;
@@ -330,7 +192,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     den += beta.v[k];
                 }
                 if (!(den > 0.0)) {
-                    settle(kInf);
+                    walk.abandon(&out.beam_volume);
                     return out;
                 }
                 double p_real = num / den;
@@ -341,13 +203,11 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 }
                 for (int k = 0; k < nb; ++k) beta.v[k] *= (1.0 - L->b_path.v[k] / maj) / (1.0 - p_real);
                 if (clipped) intersect_rest(t_cur);  // a null collision: now find the surface beyond it
-                dt = flight(draw_depth());
+                dt = walk.next_flight(rng, t_cur, t_hit, clipped, intersect_rest);
             }
             if (scattered) {
-                settle(t_cur);
-                if (L == &grid_local) w.local_components(grho, o.z + d.z * t_cur, &grid_local, nb);
+                L = &walk.scatter_at(t_cur, &out.beam_volume);
                 if (++depth > max_depth) return out;
-                if (w.stratified() && !w.grid) travel(w, o, d, t_cur);  // (a grid: settle did)
                 o = o + d * t_cur;
                 // Choose a mixture component by its throughput-weighted share of scattering,
                 // sample it (outside the forward cone), and weight each band by its own
@@ -447,23 +307,21 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                         beam_scatter_along(o, wb, hb.valid ? hb.t : kInf, medium, rng, &I);
                         const double den = mixture(pa_b, pb_b) + qb * pb_b;
                         for (int k = 0; k < nb; ++k)
-                            out.beam_volume.v[k] += beta_pre.v[k] * band_phase(k) * absorbed(w, k) * I.v[k] / den;
+                            out.beam_volume.v[k] += beta_pre.v[k] * band_phase(k) * walk.absorbed(w, k) * I.v[k] / den;
                     }
                 }
                 d = nd;
                 sun_covered = false;   // no straight connection to the sun from inside water
                 beam_covered = hybrid; // the beams already count the sun arriving here straight
                 if (depth >= rr_depth) {
-                    double q = std::min(0.95, max_component(beta, nb) * absorbed_bound(w));
+                    double q = std::min(0.95, max_component(beta, nb) * walk.absorbed_bound(w));
                     if (!(rng.uniform() < q)) return out;
                     for (int k = 0; k < nb; ++k) beta.v[k] /= q;
                 }
                 continue;
             }
-            settle(h.valid ? t_hit : kInf);
+            walk.end_at(h.valid ? t_hit : kInf, t_cur, &out.beam_volume);
             if (!h.valid) return out;  // lost in infinitely deep water
-            if (w.stratified() && !w.grid) travel(w, o, d, t_hit);
-            else pending += t_hit - t_cur;
         } else {
             h = intersect(o, d);
             c.segments++;
@@ -506,7 +364,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             thread_local BeamSample beams[kMaxBeams];  // per thread: not zeroed per path (10 kB)
             if (hybrid && medium >= 0) {
                 // The refracted sun on an underwater surface: every beam covering the point.
-                flush(waters[medium]);
+                walk.flush(waters[medium], &beta);
                 int nbm = beams_at(xo, medium, beams, kMaxBeams);
                 if (has_beams()) best = brightest(beams, nbm);
                 for (int j = 0; j < nbm; ++j) {
@@ -584,7 +442,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             // beams refract with them); directions must also lie on the right side of the
             // geometric facet, else the sample is lost (rare, at grazing angles).
             const Water& w = waters[h.index];
-            if (medium >= 0) flush(w);
+            if (medium >= 0) walk.flush(w, &beta);
             const Frame fr(h.ns);
             const Vec3 wi = fr.to_local(-d);
             if ((wi.z > 0.0) != (medium < 0)) return out;
@@ -644,7 +502,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 reflect_state = reflect_state == 1 && entering ? 2 : 0;
             } else {
                 reflect_state = 0;
-                if (!entering) flush(w);  // leaving the water: beta must carry its absorption
+                if (!entering) walk.flush(w, &beta);  // leaving the water: beta must carry its absorption
                 double r = n1 / n2;
                 for (int k = 0; k < nb; ++k) beta.v[k] *= r * r;  // radiance n^2 law
                 d = dtr;
@@ -655,7 +513,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             sun_covered = false;  // a specular event: NEE could not have seen this path
         }
         if (depth >= rr_depth) {
-            double bound = medium >= 0 ? absorbed_bound(waters[medium]) : 1.0;
+            double bound = medium >= 0 ? walk.absorbed_bound(waters[medium]) : 1.0;
             double q = std::min(0.95, max_component(beta, nb) * bound);
             if (!(q > 0.0) || !(rng.uniform() < q)) return out;
             for (int k = 0; k < nb; ++k) beta.v[k] /= q;
@@ -770,14 +628,8 @@ void Scene::camera_guides(int ci, int per_axis, int threads, float* albedo, floa
                             const Water& w = waters[medium];
                             Spectrum ta, tb;
                             const Vec3 e = o + d * t;
-                            w.add_optical_depth(&WaterLayer::a, o.z, e.z, t, nb, &ta);
-                            w.add_optical_depth(&WaterLayer::b, o.z, e.z, t, nb, &tb);
-                            if (w.grid) {
-                                double r[VoxelGrid::kMaxFields];
-                                w.grid->integral(o, e, t, r);
-                                w.grid_add_bands(r, &WaterLayer::a, nb, ta.v.data());
-                                w.grid_add_bands(r, &WaterLayer::b, nb, tb.v.data());
-                            }
+                            w.add_optical_depth(&WaterLayer::a, o, e, t, nb, &ta);
+                            w.add_optical_depth(&WaterLayer::b, o, e, t, nb, &tb);
                             for (int k = 0; k < nb; ++k) {
                                 double tau = ta.v[k] + tb.v[k];
                                 double tr = std::exp(-tau);

@@ -13,12 +13,11 @@
 #include "rng.h"
 #include "vec.h"
 #include "rough_interface.h"
-#include "voxel_grid.h"
+#include "medium.h"
 #include "huge_pages.h"
 
 namespace photic {
 
-constexpr int kMaxBands = 16;  // bands per render pass; larger band lists are split in groups
 constexpr int kNumComponents = 5;  // total, beam_surface, beam_volume, path, beam_direct
 constexpr int kRoughFlatBeams = 16;  // facets per build below a rough flat ocean
 constexpr int kMaxBeams = 64;      // beams summed at one point (overlaps in strong caustics)
@@ -26,201 +25,8 @@ constexpr int kMaxBeams = 64;      // beams summed at one point (overlaps in str
 // reverse (Scene::trace, radiometer_sample).
 constexpr double kBeamGuide = 0.25;
 
-struct Spectrum {
-    std::array<double, kMaxBands> v{};
-    static Spectrum constant(double c) { Spectrum s; s.v.fill(c); return s; }
-};
-
 struct Material {  // Lambertian
     Spectrum reflectance;
-};
-
-struct ScatterComponent {
-    int phase = 0;   // index into Scene::phases (the same in every layer of a water body)
-    double f = 0.0;  // fraction of its phase function inside the forward cone (kept in beams)
-    double weight = 0.0;  // sum of its b over bands and layers: its share in beam-direction MIS
-};
-
-// The IOPs of one horizontal layer of a water body. Homogeneous water has one layer; stratified
-// water has several, piecewise constant in z (photic.scene.IOPProfile).
-struct WaterLayer {
-    double z_top = kInf;                 // upper boundary (m); the first layer has no upper limit
-    Spectrum a;                          // absorption per band, 1/m
-    Spectrum b;                          // total scattering per band, 1/m
-    std::vector<Spectrum> comp_b;        // per component of Water::components: b per band
-    std::vector<Spectrum> comp_b_path;   // per component: b (1 - f), what path tracing scatters
-    double a_min = 0.0;                  // smallest absorption over the bands
-    double majorant = 0.0;               // largest b_path over the bands (regional tracking)
-    Spectrum b_path;                     // scattering sampled by paths: sum of b (1 - f)
-    Spectrum c_beam;                     // beam attenuation a + b (1 - f)
-    Spectrum c_path;                     // a + b_path: attenuation of light along a path
-    double c_path_mean = 0.0;
-};
-
-struct Water {
-    double ior = 1.34;
-    std::vector<ScatterComponent> components;
-    // Layers from the top down: layers[i] holds layers[i+1].z_top < z <= layers[i].z_top, the
-    // last one extends downwards without limit and the first one upwards. One layer:
-    // homogeneous water (the plain code paths).
-    std::vector<WaterLayer> layers;
-    double majorant = 0.0;               // >= b_path in every band and layer (delta tracking)
-    double a_min = 0.0;                  // smallest absorption over the bands and layers
-    double c_path_mean = 0.0;            // homogeneous: the layer's; stratified: smallest > 0
-    double c_beam_min = 0.0;             // smallest beam attenuation over bands and layers
-    double b_max = 0.0;                  // largest b (all scattering) over bands, layers, voxels
-    double mis_bsum = 0.0;               // sum of all b (beam-direction MIS sampling)
-    double mis_wsum = 0.0;               // sum of the components' weights (its pdf)
-
-    bool stratified() const { return layers.size() > 1; }
-    // 3-D IOPs over a box, or null: c(x) = c_base(z) + sum_f rho_f(x) c_unit,f (absorption
-    // and each component's b alike) over the grid's density fields, with the base IOPs in the
-    // layers (one: homogeneous; several: a depth profile) and each field's unit ones in
-    // grid_units. Densities and their integrals come as arrays rho[0..fields).
-    std::shared_ptr<VoxelGrid> grid;
-    std::vector<WaterLayer> grid_units;  // one per field
-    int grid_nf = 0;                     // their number (read per voxel step: a plain int)
-    // The free paths' majorant in a grid where the densities are rho: s0 + sum_f s1[f] rho_f
-    // >= b_path in every band (s0, s1[f]: the base's and field f's unit b_path's largest over
-    // the bands and layers).
-    double grid_s0 = 0.0, grid_s1[VoxelGrid::kMaxFields] = {};
-    // Bit f set where field f's unit scatters at all (grid_scatter_fields), and per component
-    // where it scatters in that component (grid_comp_fields): the sums below skip the rest (a
-    // CDOM field scatters nothing; a particle field adds to its own component only).
-    unsigned grid_scatter_fields = 0;
-    std::vector<unsigned> grid_comp_fields;
-    bool varying() const { return layers.size() > 1 || grid; }
-    int grid_fields() const { return grid_nf; }
-    double grid_majorant(const double* r) const {
-        double m = grid_s0;
-        for (int f = 0; f < grid_fields(); ++f) m += grid_s1[f] * r[f];
-        return m;
-    }
-    // sum_f r[f] unit_f[k] added to out[k] in bands 0..nb, the fields in order; unit(U) is
-    // the Spectrum of field unit U to scale. The bands innermost, in a loop the compiler
-    // vectorises (a loop over the fields per band did a few flops per branch, at every
-    // collision and for every transmittance). Fields with r = 0 add nothing.
-    template <class Unit>
-    void grid_add_bands(const double* r, Unit unit, int nb, double* __restrict out, unsigned fields = ~0u) const {
-        for (int f = 0; f < grid_nf; ++f) {
-            const double rf = r[f];
-            if (rf == 0.0 || !(fields >> f & 1u)) continue;
-            const double* __restrict u = unit(grid_units[f]).v.data();
-            for (int k = 0; k < nb; ++k) out[k] += rf * u[k];
-        }
-    }
-    // The same for the member `what` of each field's unit WaterLayer.
-    void grid_add_bands(const double* r, Spectrum WaterLayer::*what, int nb, double* out, unsigned fields = ~0u) const {
-        grid_add_bands(r, [what](const WaterLayer& U) -> const Spectrum& { return U.*what; }, nb, out, fields);
-    }
-    // A grid's coefficients where its densities are r: the base plus the fields' units times
-    // their densities (written into *scratch). Only what a collision's decision reads, b_path
-    // (linear in r like every coefficient, so the base's and units' sums serve); a scattering
-    // vertex then asks for the components' b_path with local_components.
-    // (z: the height, for the base's layer.)
-    const WaterLayer& local_at_density(const double* r, double z, WaterLayer* scratch, int nb) const {
-        const WaterLayer& B = layer_at(z);
-        bool zero = true;
-        for (int f = 0; f < grid_fields(); ++f) zero = zero && r[f] == 0.0;
-        if (zero) return B;
-        double* out = scratch->b_path.v.data();
-        std::copy_n(B.b_path.v.data(), nb, out);
-        grid_add_bands(r, &WaterLayer::b_path, nb, out, grid_scatter_fields);
-        return *scratch;
-    }
-    void local_components(const double* r, double z, WaterLayer* scratch, int nb) const {
-        const WaterLayer& B = layer_at(z);
-        const size_t nc = B.comp_b_path.size();
-        scratch->comp_b_path.resize(nc);
-        for (size_t c = 0; c < nc; ++c) {
-            double* out = scratch->comp_b_path[c].v.data();
-            std::copy_n(B.comp_b_path[c].v.data(), nb, out);
-            grid_add_bands(r, [c](const WaterLayer& U) -> const Spectrum& { return U.comp_b_path[c]; }, nb, out,
-                           grid_comp_fields[c]);
-        }
-    }
-    // Grid, a segment of length len over which the densities integrate to r: its absorption
-    // optical depth added to *tau, and its attenuation exp(-c_path optical depth) into
-    // t[0..nb) (no spectrum to clear: these run once or twice per path segment), per band.
-    // The segment runs from height z0 to z1 (the base's layers).
-    void grid_absorption(double z0, double z1, double len, const double* r, int nb, Spectrum* tau) const {
-        double g[kMaxBands];
-        grid_depth(&WaterLayer::a, len, r, nb, g);
-        if (layers.size() > 1) add_optical_depth(&WaterLayer::a, z0, z1, len, nb, tau);
-        for (int k = 0; k < nb; ++k) tau->v[k] += g[k];
-    }
-    void grid_transmittance(double z0, double z1, double len, const double* r, int nb, double* t) const {
-        double g[kMaxBands];
-        grid_depth(&WaterLayer::c_path, len, r, nb, g);
-        if (layers.size() > 1) {
-            Spectrum tau;
-            add_optical_depth(&WaterLayer::c_path, z0, z1, len, nb, &tau);
-            for (int k = 0; k < nb; ++k) g[k] += tau.v[k];
-        }
-        for (int k = 0; k < nb; ++k) t[k] = std::exp(-g[k]);
-    }
-    // The optical depth of coefficient `what` over such a segment in g[0..nb): the fields', plus
-    // the homogeneous base's (a layered base's is added by the callers, through its layers).
-    void grid_depth(Spectrum WaterLayer::*what, double len, const double* r, int nb, double* g) const {
-        const bool layered = layers.size() > 1;
-        for (int k = 0; k < nb; ++k) g[k] = layered ? 0.0 : (layers[0].*what).v[k] * len;
-        grid_add_bands(r, what, nb, g);
-    }
-    const WaterLayer& layer_at(double z) const { return layers[layer_index(z)]; }
-    int layer_index(double z) const {
-        int lo = 1, hi = int(layers.size());  // the first layer i >= 1 with z_top < z, minus one
-        while (lo < hi) {
-            int mid = (lo + hi) / 2;
-            if (layers[mid].z_top >= z) lo = mid + 1; else hi = mid;
-        }
-        return lo - 1;
-    }
-    // Regional delta tracking through the layers: the distance from height z, along a
-    // direction with vertical component dz, at which the optical depth of the layers'
-    // majorants reaches xi (an Exp(1) sample), and the layer it lies in; kInf if never.
-    double free_flight(double z, double dz, double xi, int* layer) const {
-        const int n = int(layers.size());
-        int i = layer_index(z);
-        double t = 0.0;
-        for (;;) {
-            const WaterLayer& L = layers[i];
-            int next = -1;
-            double s = kInf, zb = z;  // distance to the layer's boundary along the ray
-            if (dz < 0.0 && i + 1 < n) { next = i + 1; zb = layers[next].z_top; }
-            else if (dz > 0.0 && i > 0) { next = i - 1; zb = L.z_top; }
-            if (next >= 0) s = std::max(0.0, (zb - z) / dz);
-            if (L.majorant > 0.0 && xi < L.majorant * s) {
-                *layer = i;
-                return t + xi / L.majorant;
-            }
-            if (next < 0) return kInf;
-            xi -= L.majorant * s;
-            t += s;
-            z = zb;
-            i = next;
-        }
-    }
-    // Adds the optical depth of one coefficient (e.g. &WaterLayer::a) over a straight segment
-    // of length len from height z0 to z1, per band: closed form, layer by layer.
-    void add_optical_depth(Spectrum WaterLayer::*coef, double z0, double z1, double len, int nb,
-                           Spectrum* tau) const {
-        if (layers.size() == 1 || z0 == z1) {
-            const Spectrum& c = layer_at(z0).*coef;
-            for (int k = 0; k < nb; ++k) tau->v[k] += c.v[k] * len;
-            return;
-        }
-        double zlo = std::min(z0, z1), zhi = std::max(z0, z1), inv = len / (zhi - zlo);
-        for (int i = layer_index(zhi), n = int(layers.size()); i < n; ++i) {
-            double top = i == 0 ? zhi : std::min(zhi, layers[i].z_top);
-            double bottom = i + 1 < n ? std::max(zlo, layers[i + 1].z_top) : zlo;
-            if (top > bottom) {
-                const Spectrum& c = layers[i].*coef;
-                double l = (top - bottom) * inv;
-                for (int k = 0; k < nb; ++k) tau->v[k] += c.v[k] * l;
-            }
-            if (bottom <= zlo) break;
-        }
-    }
 };
 
 enum class SurfaceKind : int { kOpaque = 0, kWaterBoundary = 1 };
@@ -399,7 +205,6 @@ public:
     Vec3 beam_sun_dir{0, 0, 1};
     double beam_mu_w = 1.0;           // cosine of the refracted sun's zenith angle in water
 
-    void set_grid_coefficients(Water& w) const;  // part of set_forward_cone
     void set_forward_cone(double half_angle);  // recomputes the waters' path/beam coefficients
     // Beams for one sun direction. With a rough ocean surface, facet_u (two uniforms) picks
     // one sub-pixel facet orientation (relative to each local normal) for this build: over

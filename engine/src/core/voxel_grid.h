@@ -3,7 +3,7 @@
 // ray (the beams' and paths' optical depths), which also samples free paths exactly (regular
 // tracking). Up to kMaxFields density fields share the lattice (e.g. sediment and CDOM, each
 // scaling IOPs of its own): one walk integrates them all. The IOPs the densities scale live
-// in Water (scene.h).
+// in Water (medium.h).
 #pragma once
 #include <algorithm>
 #include <cmath>
