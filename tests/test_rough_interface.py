@@ -213,14 +213,14 @@ def test_cox_munk_variances_and_sub_pixel():
     assert surface.cox_munk_variance(5.0) == pytest.approx(0.003 + 5.12e-3 * 5)
     su, sc = surface.cox_munk_variance(10.0, anisotropic=True)
     assert (su, sc) == (pytest.approx(0.0316), pytest.approx(0.0222))
-    r = _core.RoughInterface.cox_munk(10.0, True, 0.3)
+    r = surface.rough_interface(10.0, True, 0.3)
     assert (r.sigma2_up, r.sigma2_cross) == (pytest.approx(0.0316), pytest.approx(0.0222))
-    r = _core.RoughInterface.cox_munk(4.0)
+    r = surface.rough_interface(4.0, anisotropic=False)
     assert r.sigma2_up == r.sigma2_cross == pytest.approx(0.5 * (0.003 + 5.12e-3 * 4))
     # sub-pixel: the resolved variance is removed, with a floor
     s = surface.slope_variances(10.0, True, resolved=(0.02, 0.03))
     assert s == (pytest.approx(0.0116), surface.MIN_VARIANCE)
-    r = _core.RoughInterface.cox_munk(10.0, True, 0.0, ETA, 0.02, 0.03)
+    r = surface.rough_interface(10.0, True, 0.0, ETA, resolved=(0.02, 0.03))
     assert (r.sigma2_up, r.sigma2_cross) == (pytest.approx(0.0116), pytest.approx(1e-6))
     with pytest.raises(ValueError, match="sigma2_up"):
         _core.RoughInterface(0.0, 0.01)

@@ -65,10 +65,6 @@ See engine/src/core/rough_interface.h and docs/physics.md.)doc")
         .def(py::init<double, double, double, double>(), py::arg("sigma2_up"), py::arg("sigma2_cross"),
              py::arg("wind_azimuth") = 0.0, py::arg("eta") = 1.34,
              "Per-axis slope variances (upwind, crosswind), upwind azimuth (rad from +x), n_water/n_air.")
-        .def_static("cox_munk", &RoughInterface::cox_munk, py::arg("wind_speed"), py::arg("anisotropic") = false,
-                    py::arg("wind_azimuth") = 0.0, py::arg("eta") = 1.34, py::arg("resolved_up") = 0.0,
-                    py::arg("resolved_cross") = 0.0, py::arg("min_variance") = 1e-6,
-                    "Cox-Munk slope variances from the wind speed (m/s), less the resolved per-axis variances.")
         .def_property_readonly("sigma2_up", &RoughInterface::sigma2_up)
         .def_property_readonly("sigma2_cross", &RoughInterface::sigma2_cross)
         .def_property_readonly("wind_azimuth", &RoughInterface::wind_azimuth)

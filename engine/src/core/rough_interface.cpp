@@ -66,24 +66,6 @@ RoughInterface::RoughInterface(double sigma2_up, double sigma2_cross, double win
     sw_ = std::sin(wind_azimuth);
 }
 
-RoughInterface RoughInterface::cox_munk(double U, bool anisotropic, double wind_azimuth, double eta,
-                                        double resolved_up, double resolved_cross, double min_variance) {
-    if (!(U >= 0.0) || !std::isfinite(U))
-        throw std::invalid_argument("RoughInterface.cox_munk: wind speed U must be >= 0 m/s");
-    if (!(min_variance > 0.0))
-        throw std::invalid_argument("RoughInterface.cox_munk: min_variance must be > 0");
-    double s2u, s2c;
-    if (anisotropic) {
-        s2u = 3.16e-3 * U;
-        s2c = 0.003 + 1.92e-3 * U;
-    } else {
-        s2u = s2c = 0.5 * (0.003 + 5.12e-3 * U);
-    }
-    s2u = std::max(min_variance, s2u - resolved_up);
-    s2c = std::max(min_variance, s2c - resolved_cross);
-    return RoughInterface(s2u, s2c, wind_azimuth, eta);
-}
-
 double RoughInterface::d_local(const Vec3& h) const {
     if (!(h.z > 0.0)) return 0.0;
     double zx = h.x / h.z, zy = h.y / h.z;  // slopes up to sign (the Gaussian is even)

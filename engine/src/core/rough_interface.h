@@ -54,14 +54,7 @@ public:
     // Per-axis slope variances (> 0), upwind axis azimuth (radians from +x), eta = n_water/n_air.
     RoughInterface(double sigma2_up, double sigma2_cross, double wind_azimuth = 0.0, double eta = 1.34);
 
-    // Cox-Munk from the wind speed U (m/s, at 12.5 m): isotropic sigma^2 = 0.003 + 5.12e-3 U
-    // split evenly between the axes, or anisotropic sigma_c^2 = 0.003 + 1.92e-3 U,
-    // sigma_u^2 = 3.16e-3 U. resolved_up / resolved_cross: per-axis slope variance already
-    // resolved by geometry (a wave height field); the remainder, at least min_variance, is the
-    // sub-pixel roughness (PHYSICS-NOTES 5.3).
-    static RoughInterface cox_munk(double wind_speed, bool anisotropic, double wind_azimuth = 0.0,
-                                   double eta = 1.34, double resolved_up = 0.0,
-                                   double resolved_cross = 0.0, double min_variance = 1e-6);
+    // (Slope variances from the wind: photic.surface.slope_variances, Cox-Munk, in one place.)
 
     double eval(const Vec3& wi, const Vec3& wo, Mode mode = kRadiance) const;
     double pdf(const Vec3& wi, const Vec3& wo) const;
