@@ -76,7 +76,7 @@ def load_engine():
         except ImportError:
             add_search_paths()
             importlib.import_module("photic._core")
-        for name in ("photic.scene", "photic.render", "photic.output", "photic.water",
+        for name in ("photic.scene", "photic.render", "photic.output", "photic.iop_models",
                      "photic.waves", "photic.surface"):
             importlib.import_module(name)
         _engine = sys.modules["photic"]

@@ -234,14 +234,15 @@ class _Exporter:
         phase = self.phase_function(owner, p.phase_function, p.hg_g, p.ff_backscatter)
         scattering = [S.ScatteringComponent(b, phase)] if np.any(b > 0) else []
         if p.iop_source == "PURE_WATER":
-            water = self.photic.water
+            models = self.photic.iop_models
+            bands = [(c, w) for _, c, w in self.bands]
             try:
-                a = a + np.array([water.pure_water_absorption(c, w) for _, c, w in self.bands])
+                a = a + models.pure_water_absorption(bands)
             except ValueError as exc:
                 raise ExportError(owner, "Photic > IOPs (photic.iop_source)",
                                   f"pure water: {exc}; choose bands within it or give the "
                                   f"coefficients") from None
-            b_w = np.array([water.pure_water_scattering(c, w) for _, c, w in self.bands])
+            b_w = models.pure_seawater_scattering(bands)
             scattering.insert(0, S.ScatteringComponent(b_w, S.PhaseFunction("pure_water")))
         return S.IOPs(a, scattering)
 

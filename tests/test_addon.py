@@ -654,7 +654,7 @@ def test_export_reports_progress_and_can_be_cancelled(empty):
 def test_pure_water_iops_from_the_model(empty):
     """IOPs 'Pure Water + Additions': Pope & Fry absorption and pure-water scattering per band,
     plus the object's coefficients as a second (particle) component."""
-    from photic.water import pure_water_absorption, pure_water_scattering
+    from photic.iop_models import pure_water_absorption, pure_seawater_scattering
     add_camera()
     sea = add_sea()
     sea.photic.iop_source = "PURE_WATER"
@@ -662,9 +662,9 @@ def test_pure_water_iops_from_the_model(empty):
     scene, _ = export_current()
     iops = scene.water[0].iops
     bands = [(b.center_nm, b.width_nm) for b in scene.bands]
-    np.testing.assert_allclose(iops.absorption, [pure_water_absorption(c, w) for c, w in bands])
+    np.testing.assert_allclose(iops.absorption, pure_water_absorption(bands))
     assert iops.scattering[0].phase.type == "pure_water"
-    np.testing.assert_allclose(iops.scattering[0].b, [pure_water_scattering(c, w) for c, w in bands])
+    np.testing.assert_allclose(iops.scattering[0].b, pure_seawater_scattering(bands))
     np.testing.assert_allclose(iops.scattering[1].b, 0.1)
     assert iops.absorption[0] > iops.absorption[2]  # red (620 nm) absorbed more than blue
     empty.photic.bands, empty.photic.custom_bands = "CUSTOM", "350:10"

@@ -22,8 +22,8 @@ from photic_blender import export, final_render, ui  # noqa: E402
 from photic_blender.batch import ensure_registered, render_blend  # noqa: E402
 
 import photic  # noqa: E402
-import photic.render  # noqa: E402,F401  (the exporter uses photic.scene and photic.water)
-import photic.water  # noqa: E402,F401
+import photic.render  # noqa: E402,F401  (the exporter uses photic.scene and photic.iop_models)
+import photic.iop_models  # noqa: E402,F401
 
 REPO = Path(__file__).resolve().parents[1]
 RGB = ["620", "550", "460"]  # the default bands, red first
@@ -183,12 +183,12 @@ def test_layer_table_profile_exports_the_engine_profile(empty):
     path.write_text("depth_m,a,b\n0,0.01,0.1\n3,0.02,0.3\n")
     p.profile_table_text, p.profile_table_file = None, "//layers.csv"
     scene, water = export_water()
-    from photic.water import pure_water_absorption, pure_water_scattering
+    from photic.iop_models import pure_water_absorption, pure_seawater_scattering
     bands = [(b.center_nm, b.width_nm) for b in scene.bands]
     layer = scene.water[0].iops.layers[1]
-    np.testing.assert_allclose(layer.absorption, [0.02 + pure_water_absorption(*b) for b in bands])
+    np.testing.assert_allclose(layer.absorption, 0.02 + pure_water_absorption(bands))
     assert [c.phase.type for c in layer.scattering] == ["pure_water", "henyey_greenstein"]
-    np.testing.assert_allclose(layer.scattering[0].b, [pure_water_scattering(*b) for b in bands])
+    np.testing.assert_allclose(layer.scattering[0].b, pure_seawater_scattering(bands))
     assert water["iop_profile"]["z_top"] == [0.5, -2.5]
 
 

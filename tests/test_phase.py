@@ -108,15 +108,18 @@ def test_fournier_forand_parameters_from_backscatter():
 
 
 def test_pure_water_iops_spot_values():
-    """Pope & Fry 1997 table values and the Morel/Smith & Baker power law."""
-    from photic.water import pure_water_absorption, pure_water_scattering
-    assert pure_water_absorption(440.0) == pytest.approx(0.00635, abs=1e-9)
-    assert pure_water_absorption(550.0) == pytest.approx(0.0565, abs=1e-9)
-    assert pure_water_absorption(401.25) == pytest.approx((0.00663 + 0.00579) / 2, abs=1e-9)
+    """Pope & Fry 1997 table values and the Morel/Smith & Baker power law (per band: centre,
+    width in nm)."""
+    from photic.iop_models import pure_seawater_scattering, pure_water_absorption
+
+    def a(centre, width=0.0):
+        return float(pure_water_absorption([(centre, width)])[0])
+    assert a(440.0) == pytest.approx(0.00635, abs=1e-9)
+    assert a(550.0) == pytest.approx(0.0565, abs=1e-9)
+    assert a(401.25) == pytest.approx((0.00663 + 0.00579) / 2, abs=1e-9)
     # a band average lies between the table's extremes over the band
-    a = pure_water_absorption(550.0, 60.0)
-    assert pure_water_absorption(520.0) < a < pure_water_absorption(580.0)
-    assert pure_water_scattering(500.0) == pytest.approx(0.00288)
-    assert pure_water_scattering(400.0) == pytest.approx(0.0076, rel=0.01)
-    with pytest.raises(ValueError, match="outside the Pope & Fry"):
-        pure_water_absorption(750.0)
+    assert a(520.0) < a(550.0, 60.0) < a(580.0)
+    assert pure_seawater_scattering([(500.0, 0.0)])[0] == pytest.approx(0.00288)
+    assert pure_seawater_scattering([(400.0, 0.0)])[0] == pytest.approx(0.0076, rel=0.01)
+    with pytest.raises(ValueError, match="750"):
+        a(750.0)
