@@ -285,9 +285,10 @@ class _Exporter:
 
     def _ior(self, obj) -> float:
         ior = blender_float(obj.original.photic.ior)
-        if not (math.isfinite(ior) and 1.0 <= ior <= 2.0):
+        p = self.photic.parameters.PARAMETERS["water.ior"]
+        if not (math.isfinite(ior) and p.contains(ior)):
             raise ExportError(_obj(obj.name), "Photic > Refractive Index (photic.ior)",
-                              f"is {ior}, must be in [1, 2]")
+                              f"is {ior}, must be in {p.range_text()}")
         return ior
 
     def add_water_surface(self, obj, key, matrix):
@@ -434,11 +435,12 @@ class _Exporter:
             irradiance = strength * bandmod.rgb_to_bands(colour, self.bands)
             _finite_non_negative(owner, "Color (data.color)", irradiance, "sun irradiance")
         diameter = blender_float(math.degrees(light.angle))
-        if not 0.0 < diameter <= 20.0:
+        p = self.photic.parameters.PARAMETERS["sun.angular_diameter_deg"]
+        if not p.contains(diameter):
             raise ExportError(owner, "Angle (data.angle)", f"is {diameter:.3g} degrees; "
                                                            f"Photic's sun disk must be in "
-                                                           f"(0, 20] degrees (the real sun: "
-                                                           f"0.53)")
+                                                           f"{p.range_text()} degrees (the real "
+                                                           f"sun: 0.53)")
         return S.Sun(zenith, azimuth, irradiance, angular_diameter_deg=diameter)
 
     def sky(self):

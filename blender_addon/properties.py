@@ -84,8 +84,9 @@ def _unit_coefficients(per: str, scattering: str, b_default: float) -> dict:
             name="Unit Phase Function", items=PHASE_FUNCTIONS, default="fournier_forand",
             description=f"Phase function of {scattering}"),
         "unit_hg_g": FloatProperty(
-            name="Unit Asymmetry g", default=0.9, min=-0.99, max=0.99, precision=3,
-            description=f"Henyey-Greenstein g of {scattering}, in [-0.99, 0.99]"),
+            name="Unit Asymmetry g", default=0.9, min=-0.9999, max=0.9999, soft_min=-0.99,
+            soft_max=0.99, precision=4,
+            description=f"Henyey-Greenstein g of {scattering}, in [-0.9999, 0.9999]"),
         "unit_ff_backscatter": FloatProperty(
             name="Unit Backscatter Fraction", default=0.02, min=0.0001, max=0.15, precision=4,
             description=f"Fournier-Forand backscatter fraction of {scattering}, in [0.0001, 0.15]"),
@@ -164,13 +165,16 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
     phase_function: EnumProperty(name="Phase Function", items=PHASE_FUNCTIONS,
                                  default="petzold",
                                  description="Angular distribution of scattered light")
-    hg_g: FloatProperty(name="Asymmetry g", default=0.9, min=-0.99, max=0.99, precision=3,
+    # (the engine's range, photic.parameters; dragging stops at +-0.99)
+    hg_g: FloatProperty(name="Asymmetry g", default=0.9, min=-0.9999, max=0.9999, soft_min=-0.99,
+                        soft_max=0.99, precision=4,
                         description="Henyey-Greenstein mean cosine of scattering "
-                                    "(dimensionless), in [-0.99, 0.99]")
+                                    "(dimensionless), in [-0.9999, 0.9999]")
+    # (at most 0.15: the range of the Fournier-Forand parameterisation the engine uses)
     ff_backscatter: FloatProperty(
-        name="Backscatter Fraction", default=0.0183, min=0.0001, max=0.5, precision=4,
+        name="Backscatter Fraction", default=0.0183, min=0.0001, max=0.15, precision=4,
         description="Fournier-Forand backscatter fraction b_b/b (dimensionless), "
-                    "in [0.0001, 0.5]")
+                    "in [0.0001, 0.15]")
     ior: FloatProperty(name="Refractive Index", default=1.34, min=1.0, max=2.0, precision=3,
                        description="Refractive index of the water relative to air "
                                    "(dimensionless), in [1, 2]")
@@ -210,8 +214,9 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
                                   update=_wave_update,
                                   description="Direction the wind blows towards, from +X "
                                               "towards +Y (degrees)")
-    wave_patch_size: FloatProperty(name="Patch Size", default=50.0, min=0.1, soft_max=1000.0,
-                                   unit="LENGTH", update=_wave_update,
+    # (at most 2e6 m: the engine's limit, Embree traces in single precision)
+    wave_patch_size: FloatProperty(name="Patch Size", default=50.0, min=0.1, max=2e6,
+                                   soft_max=1000.0, unit="LENGTH", update=_wave_update,
                                    description="Side of the square wave patch, its period (m)")
     wave_resolution: IntProperty(name="Resolution", default=64, min=4, max=1024,
                                  update=_wave_update,
@@ -238,9 +243,11 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
                                                     "instead of the isotropic total")
     use_bottom: BoolProperty(name="Bottom", default=False,
                              description="A flat, opaque sea floor below the water surface")
-    bottom_depth: FloatProperty(name="Bottom Depth", default=10.0, min=0.001, soft_max=1000.0,
-                                unit="LENGTH", description="Depth of the sea floor below the "
-                                                           "mean water surface (m), > 0")
+    # (at most 1e6 m: the engine's limit, Embree traces in single precision)
+    bottom_depth: FloatProperty(name="Bottom Depth", default=10.0, min=0.001, max=1e6,
+                                soft_max=1000.0, unit="LENGTH",
+                                description="Depth of the sea floor below the mean water "
+                                            "surface (m), > 0")
     bottom_material: PointerProperty(type=bpy.types.Material, name="Bottom Material",
                                      description="Material of the sea floor (its base colour "
                                                  "or Photic reflectance); none: grey 0.18")
@@ -446,7 +453,9 @@ class PhoticWorldProperties(bpy.types.PropertyGroup):
                ("CARDIOIDAL", "Cardioidal", "Overcast sky, L = L0 (1 + 2 cos zenith angle)"),
                ("BLACK", "Black", "No sky light (sun only)")],
         description="Radiance of the sky over the upper hemisphere")
-    radiance: FloatProperty(name="Radiance L0 (W m⁻² sr⁻¹)", default=0.1, min=0.0, soft_max=100.0,
+    # (at most 1e20: the engine's limit, the float32 image stays finite)
+    radiance: FloatProperty(name="Radiance L0 (W m⁻² sr⁻¹)", default=0.1, min=0.0, max=1e20,
+                            soft_max=100.0,
                             description="Sky radiance scale L0 (W m^-2 sr^-1 per unit of the "
                                         "band's spectrum)")
     color: FloatVectorProperty(name="Colour", subtype="COLOR", size=3, min=0.0, max=1.0,

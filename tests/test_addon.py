@@ -1170,22 +1170,60 @@ ADDON_PARAMETERS = [
     ("PhoticObjectProperties", "ior", "water.ior", 1.0, None),
     ("PhoticSceneProperties", "band_center_nm", "band.center_nm", 1.0, None),
     ("PhoticSceneProperties", "band_width_nm", "band.width_nm", 1.0, None),
+    ("PhoticMaterialProperties", "reflectance", "material.reflectance", 1.0, None),
+    ("PhoticObjectProperties", "absorption", "iops.absorption", 1.0, "float max"),
+    ("PhoticObjectProperties", "scattering", "scattering_component.b", 1.0, "float max"),
+    ("PhoticObjectProperties", "unit_absorption", "iops.absorption", 1.0, "float max"),
+    ("PhoticObjectProperties", "unit_scattering", "scattering_component.b", 1.0, "float max"),
+    ("PhoticGridField", "unit_absorption", "iops.absorption", 1.0, "float max"),
+    ("PhoticGridField", "unit_scattering", "scattering_component.b", 1.0, "float max"),
+    ("PhoticObjectProperties", "hg_g", "phase.g", 1.0, None),
+    ("PhoticObjectProperties", "unit_hg_g", "phase.g", 1.0, None),
+    ("PhoticGridField", "unit_hg_g", "phase.g", 1.0, None),
+    ("PhoticObjectProperties", "ff_backscatter", "phase.backscatter_fraction", 1.0, None),
+    ("PhoticObjectProperties", "unit_ff_backscatter", "phase.backscatter_fraction", 1.0, None),
+    ("PhoticGridField", "unit_ff_backscatter", "phase.backscatter_fraction", 1.0, None),
+    ("PhoticObjectProperties", "bottom_depth", "bottom.depth", 1.0, "open end"),
+    # one wind for the roughness (0-50 m/s, Cox-Munk's fit) and the waves (any speed)
+    ("PhoticObjectProperties", "wind_speed", "surface.roughness.wind_speed", 1.0, None),
+    ("PhoticObjectProperties", "wind_speed", "surface.wind_speed", 1.0, "shared with roughness"),
+    ("PhoticObjectProperties", "wave_patch_size", "surface.patch_size_m", 1.0, "a preview"),
+    ("PhoticObjectProperties", "wave_resolution", "surface.resolution", 1.0, "a preview"),
+    ("PhoticObjectProperties", "wave_seed", "surface.seed", 1.0, "int32"),
+    ("PhoticObjectProperties", "choppiness", "surface.choppiness", 1.0, "folds beyond"),
+    ("PhoticObjectProperties", "fetch", "surface.fetch_m", 1.0, "open end"),
+    ("PhoticObjectProperties", "wave_depth", "surface.water_depth_m", 1.0, "0 is deep water"),
+    ("PhoticWorldProperties", "radiance", "sky.radiance", 1.0, None),
+    ("PhoticObjectProperties", "half_angle", "radiometer.half_angle_deg", 180.0 / math.pi, "open end"),
+    ("PhoticObjectProperties", "polar_bins", "radiometer.polar_bins", 1.0, "a table"),
+    ("PhoticObjectProperties", "azimuth_bins", "radiometer.azimuth_bins", 1.0, "a table"),
 ]
 
 
-@pytest.mark.parametrize("cls, prop, key, scale, narrower", ADDON_PARAMETERS, ids=[a[1] for a in ADDON_PARAMETERS])
+@pytest.mark.parametrize("cls, prop, key, scale, narrower", ADDON_PARAMETERS,
+                         ids=[f"{a[1]}-{a[2]}" for a in ADDON_PARAMETERS])
 def test_addon_property_limits_agree_with_the_declared_parameters(empty, cls, prop, key, scale, narrower):
-    """The add-on's hard limits equal the declaration (photic/parameters.py), except where
-    Blender cannot hold the range (32-bit integers) or the UI offers a percentage within it;
-    then they lie inside it. Defaults equal where both have one."""
+    """The add-on's hard limits equal the declaration (photic/parameters.py): a value Blender
+    takes that the engine refuses is a bug. Where there is a reason (Blender's 32-bit integers,
+    a percentage, an open end Blender cannot hold, no upper limit where Blender's float has
+    one, a preview regenerated on every edit) they lie inside it instead; 'deep water' is a
+    0 that means 'none'. Defaults equal where both have one."""
     from photic.parameters import PARAMETERS
     from photic_blender import properties as props
+    from photic_blender.export_values import blender_float
     p = PARAMETERS[key]
     rna = getattr(props, cls).bl_rna.properties[prop]
-    lo, hi = rna.hard_min * scale, rna.hard_max * scale
+    # (as the export reads them: float32 to the 7 digits typed; 90 degrees in radians is not)
+    lo, hi = (blender_float(x * scale) if rna.type == "FLOAT" else x * scale
+              for x in (rna.hard_min, rna.hard_max))
     if narrower is None:
         assert lo == pytest.approx(p.lo, rel=1e-6) and hi == pytest.approx(p.hi, rel=1e-6), (prop, lo, hi, p)
+    elif narrower == "0 is deep water":
+        assert lo == 0 and p.contains(hi), (prop, lo, hi, p)
+    elif narrower == "float max":  # no upper limit: Blender's largest float
+        assert lo == pytest.approx(p.lo) and p.hi is None and hi > 1e38, (prop, lo, hi, p)
     else:
         assert p.contains(lo) and p.contains(hi), (prop, lo, hi, p)
     if p.default is not None and not isinstance(p.default, str) and narrower != "percent":
-        assert rna.default * scale == pytest.approx(p.default, rel=1e-6), (prop, rna.default, p.default)
+        default = p.default[0] if isinstance(p.default, list) else p.default  # a square patch
+        assert rna.default * scale == pytest.approx(default, rel=1e-6), (prop, rna.default, p.default)

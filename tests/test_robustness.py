@@ -167,7 +167,7 @@ def test_tiny_band_widths_and_patch_sizes_are_refused():
     d = small()
     d["water"][0]["surface"] = {"kind": "waves", "spectrum": "pierson_moskowitz", "wind_speed": 5,
                                 "patch_size_m": [1e-300, 1e-300], "resolution": [8, 8]}
-    refused(d, field="patch_size_m[0]", text="0.001")
+    refused(d, field="patch_size_m[", text="0.001")  # (the schema may name either entry)
 
 
 def test_mesh_files_that_are_folders_or_devices_say_so(tmp_path):

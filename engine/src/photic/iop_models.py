@@ -107,6 +107,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from .parameters import PARAMETERS
 from .scene.checks import PHASE_FUNCTION_PARAMS, SceneError
 from .scene.model import IOPs, PhaseFunction, ScatteringComponent
 
@@ -120,7 +121,8 @@ __all__ = [
 #: Pure-water absorption tables a model may name.
 WATER_ABSORPTION_SOURCES = ("pope_fry", "smith_baker", "pope_fry_smith_baker")
 #: The range of backscatter fractions the Fournier-Forand fit (and the scene format) accepts.
-FF_BACKSCATTER_RANGE = (1e-4, 0.15)
+FF_BACKSCATTER_RANGE = (PARAMETERS["phase.backscatter_fraction"].lo,
+                        PARAMETERS["phase.backscatter_fraction"].hi)
 #: The special value of a Fournier-Forand ``backscatter_fraction`` in a Case-1 model.
 MM01 = "morel_maritorena_2001"
 
@@ -594,8 +596,8 @@ def _phase_from_spec(spec: _Spec, fld: str, allow_mm01: bool):
             raise sub.error(key, f"required by phase function '{ptype}'")
     if ptype == "henyey_greenstein":
         g = sub.number("g")
-        if not -1 < g < 1:
-            raise sub.error("g", f"must be in (-1, 1), got {_show(g)}")
+        if not PARAMETERS["phase.g"].contains(g):
+            raise sub.error("g", f"must be in {PARAMETERS['phase.g'].range_text()}, got {_show(g)}")
         params["g"] = g
     elif ptype == "fournier_forand":
         if d["backscatter_fraction"] == MM01:

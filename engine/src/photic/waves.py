@@ -75,8 +75,6 @@ SPREADINGS = ("cos2s", "cos2")
 PM_ALPHA = 8.1e-3        # Phillips constant of Pierson-Moskowitz (and of "phillips")
 PM_BETA = 0.74
 U19_5_PER_U10 = 1.026    # Stewart 2008, sec. 16.5
-_MAX_RESOLUTION = 4096
-_MAX_SEED = 2 ** 63 - 1
 
 
 class SurfaceFoldsError(ValueError):
@@ -146,38 +144,40 @@ class WaveModel:
     def validate(self, obj: str = "wave model", prefix: str = "") -> None:
         """Check every field; raise ``SceneError(obj, prefix + field, ...)`` on the first
         problem (``obj`` e.g. ``"water 'sea'"``, ``prefix`` e.g. ``"surface."``)."""
-        from .scene.checks import SceneError, _check_choice, _check_int, _check_real, _show
+        from .parameters import check_parameter
+        from .scene.checks import SceneError, _check_choice, _check_real, _show
+
+        def check(name, value, fld=None):  # the declared range of surface.<name>
+            check_parameter(obj, f"surface.{name}", value, f"{prefix}{fld or name}")
 
         _check_choice(obj, f"{prefix}spectrum", self.spectrum, SPECTRA)
-        windy = self.spectrum in ("pierson_moskowitz", "jonswap", "phillips")
-        _check_real(obj, f"{prefix}wind_speed", self.wind_speed, 0, lo_open=windy)
+        check("wind_speed", self.wind_speed)
+        if self.spectrum in ("pierson_moskowitz", "jonswap", "phillips") and self.wind_speed == 0:
+            raise SceneError(obj, f"{prefix}wind_speed", f"must be > 0 for spectrum "
+                                                         f"'{self.spectrum}', got 0")
         _check_real(obj, f"{prefix}wind_direction_deg", self.wind_direction_deg)
-        for name, lo, hi in (("patch_size_m", None, None), ("resolution", 2, _MAX_RESOLUTION)):
+        for name in ("patch_size_m", "resolution"):
             value = getattr(self, name)
             if not isinstance(value, tuple) or len(value) != 2:
                 raise SceneError(obj, f"{prefix}{name}", f"must be 2 numbers [x, y], got "
                                                          f"{_show(value)}")
             for i, x in enumerate(value):
-                if lo is None:
-                    from .scene.checks import MAX_COORDINATE_M
-                    _check_real(obj, f"{prefix}{name}[{i}]", x, 1e-3, 2 * MAX_COORDINATE_M)
-                else:
-                    _check_int(obj, f"{prefix}{name}[{i}]", x, lo, hi)
-        _check_int(obj, f"{prefix}seed", self.seed, 0, _MAX_SEED)
+                check(name, x, f"{name}[{i}]")
+        check("seed", self.seed)
         _check_real(obj, f"{prefix}time_s", self.time_s)
-        _check_real(obj, f"{prefix}choppiness", self.choppiness, 0)
+        check("choppiness", self.choppiness)
         if self.water_depth_m is not None:
-            _check_real(obj, f"{prefix}water_depth_m", self.water_depth_m, 0, lo_open=True)
+            check("water_depth_m", self.water_depth_m)
         if self.spectrum == "jonswap":
             if self.fetch_m is None:
                 raise SceneError(obj, f"{prefix}fetch_m", "required by spectrum 'jonswap' "
                                                           "(fetch in m)")
-            _check_real(obj, f"{prefix}fetch_m", self.fetch_m, 0, lo_open=True)
+            check("fetch_m", self.fetch_m)
         elif self.fetch_m is not None:
             raise SceneError(obj, f"{prefix}fetch_m", "only allowed for spectrum 'jonswap'")
-        _check_real(obj, f"{prefix}gamma", self.gamma, 1)
+        check("gamma", self.gamma)
         _check_choice(obj, f"{prefix}spreading", self.spreading, SPREADINGS)
-        _check_real(obj, f"{prefix}spreading_s", self.spreading_s, 0, 1000, lo_open=True)
+        check("spreading_s", self.spreading_s)
         if self.spectrum != "sinusoids":
             if self.sinusoids:
                 raise SceneError(obj, f"{prefix}sinusoids", "only allowed for spectrum "

@@ -198,7 +198,8 @@ def _check_per_band(obj, fld, a, nbands, lo=0.0, hi=None) -> None:
 
 # Embree traces in single precision: beyond about a thousand kilometres from the origin a
 # float32 coordinate is coarser than 6 cm and rays there fail its checks (it aborted the
-# process). Positions and sizes are limited to this, in metres.
+# process). Positions and sizes are limited to this, in metres (photic.parameters bounds
+# heights, depths and sizes with the same number; tests/test_parameters.py compares).
 MAX_COORDINATE_M = 1e6
 _COORD_TEXT = (f"within +-{MAX_COORDINATE_M:.0e} m of the origin (Embree traces in single "
                f"precision; move the scene nearer the origin)")
@@ -218,9 +219,6 @@ def _check_vec3(obj, fld, v, nonzero=False, position=False) -> None:
 
 MAX_DISTRIBUTION_BINS = 1_000_000  # polar x azimuth bins of a radiance distribution
 MAX_ARRAY_RADIOMETERS = 1_000_000  # radiometers of one array
-MAX_SOURCE = 1e20  # sun irradiance and sky radiance (per band): far beyond any sun, and the
-                   # image (float32) stays finite
-MAX_HG_G = 0.9999  # |g| of Henyey-Greenstein: nearer 1 its sampling loses all precision
 
 
 def _check_name(kind: str, index: int, name: Any, seen: dict[str, str]) -> str:

@@ -8,12 +8,12 @@ from typing import Any
 
 import numpy as np
 
-from ..parameters import check_parameter
+from ..parameters import check_parameter, check_per_band_parameter
 from .checks import (
     CAMERA_TYPES, FILTER_TYPES, INTEGRATORS, MAX_ARRAY_RADIOMETERS, MAX_COMPONENTS,
-    MAX_COORDINATE_M, MAX_DISTRIBUTION_BINS, MAX_HG_G, MAX_SOURCE, PHASE_FUNCTION_PARAMS,
+    MAX_COORDINATE_M, MAX_DISTRIBUTION_BINS, PHASE_FUNCTION_PARAMS,
     QUANTITIES, SKY_TYPES, SURFACE_KINDS, SceneError, WATER_TYPES, _COORD_TEXT,
-    _DEGENERATE_AREA_FRACTION, _check_choice, _check_int, _check_name, _check_per_band,
+    _DEGENERATE_AREA_FRACTION, _check_choice, _check_name,
     _check_real, _check_vec3, _entries, _label, _num, _show,
 )
 from .model import (
@@ -165,7 +165,7 @@ def _validate_material(key: Any, material: Material, nbands: int) -> None:
     if material.name != key:
         raise SceneError(label, "name", f"is {_show(material.name)} but the material is stored "
                                         f"under the key '{key}'")
-    _check_per_band(label, "reflectance", material.reflectance, nbands, 0.0, 1.0)
+    check_per_band_parameter(label, "material.reflectance", material.reflectance, nbands)
 
 
 def _check_material_ref(label: str, fld: str, name: Any, materials: dict) -> None:
@@ -353,17 +353,17 @@ def _validate_phase(label: str, prefix: str, phase: Any) -> None:
             raise SceneError(label, f"{prefix}{key}", f"required by phase function "
                                                       f"'{phase.type}'")
     if phase.type == "henyey_greenstein":
-        _check_real(label, f"{prefix}g", phase.params["g"], -MAX_HG_G, MAX_HG_G)
+        check_parameter(label, "phase.g", phase.params["g"], f"{prefix}g")
     elif phase.type == "fournier_forand":
-        _check_real(label, f"{prefix}backscatter_fraction",
-                    phase.params["backscatter_fraction"], 1e-4, 0.15)
+        check_parameter(label, "phase.backscatter_fraction", phase.params["backscatter_fraction"],
+                        f"{prefix}backscatter_fraction")
 
 
 def _validate_iops(label: str, iops: Any, nbands: int, fld: str = "iops") -> None:
     if not isinstance(iops, IOPs):
         raise SceneError(label, fld, "an IOPs or an IOPProfile is required" if fld == "iops"
                          else "an IOPs is required")
-    _check_per_band(label, f"{fld}.absorption", iops.absorption, nbands)
+    check_per_band_parameter(label, "iops.absorption", iops.absorption, nbands, f"{fld}.absorption")
     if not isinstance(iops.scattering, list):
         raise SceneError(label, f"{fld}.scattering", f"must be a list of ScatteringComponent, "
                                                      f"got {_show(iops.scattering)}")
@@ -374,7 +374,7 @@ def _validate_iops(label: str, iops: Any, nbands: int, fld: str = "iops") -> Non
         prefix = f"{fld}.scattering[{i}]"
         if not isinstance(component, ScatteringComponent):
             raise SceneError(label, prefix, f"must be a ScatteringComponent, got {_show(component)}")
-        _check_per_band(label, f"{prefix}.b", component.b, nbands)
+        check_per_band_parameter(label, "scattering_component.b", component.b, nbands, f"{prefix}.b")
         _validate_phase(label, f"{prefix}.phase.", component.phase)
 
 
@@ -504,7 +504,7 @@ def _validate_water(label: str, w: WaterBody, nbands: int, materials: dict) -> N
         raise SceneError(label, "mesh", "only allowed for water of type 'mesh'")
     _validate_surface(label, w.surface)
     if w.bottom_depth is not None or w.bottom_material is not None:
-        _check_real(label, "bottom_depth", w.bottom_depth, 0, MAX_COORDINATE_M, lo_open=True)
+        check_parameter(label, "bottom.depth", w.bottom_depth, "bottom_depth")
         _check_material_ref(label, "bottom_material", w.bottom_material, materials)
 
 
@@ -512,14 +512,14 @@ def _validate_surface(label: str, surface: Any) -> None:
     if not isinstance(surface, OceanSurface):
         raise SceneError(label, "surface", "an ocean needs a surface (OceanSurface)")
     _check_choice(label, "surface.kind", surface.kind, SURFACE_KINDS)
-    _check_real(label, "surface.z", surface.z)
+    check_parameter(label, "surface.z", surface.z, "surface.z")
     if surface.kind != "waves" and surface.waves is not None:
         raise SceneError(label, "surface.waves", "only allowed for surface kind 'waves'")
     r = surface.roughness
     if r is not None:
         if not isinstance(r, SurfaceRoughness):
             raise SceneError(label, "surface.roughness", f"must be a SurfaceRoughness, got {_show(r)}")
-        _check_real(label, "surface.roughness.wind_speed", r.wind_speed, 0, 50)
+        check_parameter(label, "surface.roughness.wind_speed", r.wind_speed, "surface.roughness.wind_speed")
         if not isinstance(r.anisotropic, bool):
             raise SceneError(label, "surface.roughness.anisotropic", f"must be true or false, got {_show(r.anisotropic)}")
         if r.wind_direction_deg is not None:
@@ -555,7 +555,7 @@ def _validate_surface(label: str, surface: Any) -> None:
     if not isinstance(period, tuple) or len(period) != 2:
         raise SceneError(label, "surface.period", f"must be [Lx, Ly], got {_show(period)}")
     for i, p in enumerate(period):
-        _check_real(label, f"surface.period[{i}]", p, 1e-3, 2 * MAX_COORDINATE_M)
+        check_parameter(label, "surface.period", p, f"surface.period[{i}]")
     v, t = surface.mesh.vertices, surface.mesh.triangles
     # The patch tiles the plane, so its xy extent must be exactly one period.
     extent = v[:, :2].max(axis=0) - v[:, :2].min(axis=0)
@@ -578,10 +578,10 @@ def _validate_surface(label: str, surface: Any) -> None:
 
 
 def _validate_sun(sun: Sun, nbands: int) -> None:
-    _check_real("sun", "zenith_deg", sun.zenith_deg, 0, 90, hi_open=True)
+    check_parameter("sun", "sun.zenith_deg", sun.zenith_deg)
     _check_real("sun", "azimuth_deg", sun.azimuth_deg)
-    _check_per_band("sun", "irradiance", sun.irradiance, nbands, 0.0, MAX_SOURCE)
-    _check_real("sun", "angular_diameter_deg", sun.angular_diameter_deg, 0, 20, lo_open=True)
+    check_per_band_parameter("sun", "sun.irradiance", sun.irradiance, nbands)
+    check_parameter("sun", "sun.angular_diameter_deg", sun.angular_diameter_deg)
 
 
 def _validate_sky(sky: Any, nbands: int) -> None:
@@ -592,8 +592,8 @@ def _validate_sky(sky: Any, nbands: int) -> None:
         if sky.radiance_scale is not None:
             raise SceneError("sky", "radiance_scale", "must be None for a black sky")
         return
-    _check_per_band("sky", "radiance_scale", sky.radiance_scale, nbands, 0.0, MAX_SOURCE)
-    _check_real("sky", "cloud_fraction", sky.cloud_fraction, 0, 1)
+    check_per_band_parameter("sky", "sky.radiance", sky.radiance_scale, nbands, "radiance_scale")
+    check_parameter("sky", "sky.cloud_fraction", sky.cloud_fraction)
     if sky.cloud_fraction and sky.type != "harrison_coombes":
         raise SceneError("sky", "cloud_fraction", "only for sky type 'harrison_coombes'")
     if sky.full_sphere and sky.type != "uniform":
@@ -609,29 +609,29 @@ def _validate_camera(label: str, c: Camera) -> None:
     u = c.up / np.linalg.norm(c.up)
     if np.linalg.norm(np.cross(d, u)) < 1e-6:
         raise SceneError(label, "up", f"is parallel to the viewing direction {d.tolist()}")
-    _check_real(label, "fov_deg", c.fov_deg, 0, 180, lo_open=True, hi_open=True)
-    _check_real(label, "ortho_width", c.ortho_width, 0, 2 * MAX_COORDINATE_M, lo_open=True)
+    check_parameter(label, "camera.fov_deg", c.fov_deg)
+    check_parameter(label, "camera.ortho_width", c.ortho_width)
     if not isinstance(c.resolution, tuple) or len(c.resolution) != 2:
         raise SceneError(label, "resolution", f"must be [width, height], got "
                                               f"{_show(c.resolution)}")
     for i, n in enumerate(c.resolution):
-        _check_int(label, f"resolution[{i}]", n, 1, 16384)
+        check_parameter(label, "camera.resolution", n, f"resolution[{i}]")
     _check_choice(label, "filter.type", c.filter_type, FILTER_TYPES)
-    _check_real(label, "filter.width_px", c.filter_width_px, 0, lo_open=True)
+    check_parameter(label, "camera.filter.width_px", c.filter_width_px)
     if not isinstance(c.shift, tuple) or len(c.shift) != 2:
         raise SceneError(label, "shift", f"must be [x, y], got {_show(c.shift)}")
     for i, x in enumerate(c.shift):
-        _check_real(label, f"shift[{i}]", x, -10, 10)
-    _check_real(label, "clip_start", c.clip_start, 0, MAX_COORDINATE_M)
+        check_parameter(label, "camera.shift", x, f"shift[{i}]")
+    check_parameter(label, "camera.clip_start", c.clip_start)
 
 
 def _validate_radiometer(label: str, r: Radiometer) -> None:
     _check_choice(label, "quantity", r.quantity, QUANTITIES)
     _check_vec3(label, "position", r.position, position=True)
     _check_vec3(label, "direction", r.direction, nonzero=True)
-    _check_real(label, "half_angle_deg", r.half_angle_deg, 0, 90, lo_open=True)
-    _check_int(label, "polar_bins", r.polar_bins, 1, 1_000_000)
-    _check_int(label, "azimuth_bins", r.azimuth_bins, 1, 1_000_000)
+    check_parameter(label, "radiometer.half_angle_deg", r.half_angle_deg)
+    check_parameter(label, "radiometer.polar_bins", r.polar_bins)
+    check_parameter(label, "radiometer.azimuth_bins", r.azimuth_bins)
     if r.quantity == "radiance_distribution" and r.polar_bins * r.azimuth_bins > MAX_DISTRIBUTION_BINS:
         raise SceneError(label, "azimuth_bins", f"polar_bins x azimuth_bins must be at most "
                                                 f"{MAX_DISTRIBUTION_BINS:,}, got {r.polar_bins:,} x "
@@ -654,7 +654,7 @@ def _validate_radiometer_array(label: str, a: RadiometerArray) -> None:
     if a.direction is not None:
         _check_vec3(label, "direction", a.direction, nonzero=True)
     if a.half_angle_deg is not None:
-        _check_real(label, "half_angle_deg", a.half_angle_deg, 0, 90, lo_open=True)
+        check_parameter(label, "radiometer.half_angle_deg", a.half_angle_deg)
 
 
 def _validate_settings(s: Settings) -> None:
