@@ -438,8 +438,10 @@ private:
     // settle adds it and the absorption up to t_end (kInf: none needed). The cursor only walks
     // on: the two integrals are read in the order of their points.
     void settle(double t_end, Spectrum* volume) {
+        if (w_->grid) settle_grid(t_end, volume);  // (the check inline: most water is not gridded)
+    }
+    void settle_grid(double t_end, Spectrum* volume) {
         const Water& w = *w_;
-        if (!w.grid) return;
         double r_end[VoxelGrid::kMaxFields] = {};
         const bool end = t_end < kInf;
         const bool beam = t_beam_ >= 0.0 && !beam_read_;
