@@ -845,8 +845,14 @@ void Scene::render_radiometer(int ri, uint64_t start, uint64_t count, int thread
     parallel_for(nchunks, nthreads, [&](size_t chunk, int tid) {
         if (cancel_flag.load(std::memory_order_relaxed)) return;
         uint64_t b = start + chunk * kChunk, e = std::min(start + count, b + kChunk);
-        double* s = &csum[chunk * nbins * stride];
-        double* s2 = &csq[chunk * nbins * stride];
+        // The chunk's sums are accumulated in the thread's own buffers and stored at its end:
+        // chunks next to each other in csum share cache lines at their edges, and two threads
+        // writing them on every sample made the lines bounce between the cores.
+        thread_local std::vector<double> local_sum, local_sq;
+        local_sum.assign(nbins * stride, 0.0);
+        local_sq.assign(nbins * stride, 0.0);
+        double* s = local_sum.data();
+        double* s2 = local_sq.data();
         thread_local std::vector<double> totals;  // the chunk's totals (moments only)
         thread_local std::vector<int> bins;
         totals.clear();
@@ -862,6 +868,8 @@ void Scene::render_radiometer(int ri, uint64_t start, uint64_t count, int thread
                     totals.push_back(comp[1].v[k] + comp[2].v[k] + comp[3].v[k] + comp[4].v[k]);
             }
         }
+        std::copy(local_sum.begin(), local_sum.end(), csum.begin() + chunk * nbins * stride);
+        std::copy(local_sq.begin(), local_sq.end(), csq.begin() + chunk * nbins * stride);
         if (!moments) return;
         Moments* m = &cmom[chunk * nbins * nb];
         const double* tsum = s;  // per bin: the total's sum is component 0 of the sums
