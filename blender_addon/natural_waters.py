@@ -26,6 +26,7 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
+from . import export_iops
 from .export_values import ExportError, _obj, blender_float, per_band
 from .properties import MAX_FURTHER_FIELDS
 
@@ -47,7 +48,8 @@ WATER_ROLES = ("WATER_BODY", "WATER_SURFACE")  # the objects that carry IOPs
 
 
 def varying_iops(ex, obj, level: float, bounds):
-    """The ``IOPProfile`` or ``IOPGrid`` of a water object (``ex``: the exporter)."""
+    """The ``IOPProfile`` or ``IOPGrid`` of a water object (``ex``: the export's state,
+    ``export_state.ExportState``)."""
     p = obj.original.photic
     profile = None
     if p.iop_variation in ("PROFILE", "PROFILE_GRID"):
@@ -220,8 +222,8 @@ def table_profile(ex, obj, level: float):
                     raise ExportError(owner, prop, f"{where}, row {i + 1}: {what} {q} in band "
                                                    f"{names[k]} is {x:g}, must be a finite "
                                                    f"number >= 0 (m^-1)")
-        layers.append(ex.coefficient_iops(owner, p, per_band["a"][i].copy(),
-                                          per_band["b"][i].copy()))
+        layers.append(export_iops.coefficient_iops(ex, owner, p, per_band["a"][i].copy(),
+                                                   per_band["b"][i].copy()))
     return S.IOPProfile(level - depth, align_components(layers))
 
 
@@ -253,14 +255,15 @@ def _unit_iops(ex, owner: str, q, path: str, label: str):
     further field), errors naming ``label`` + the property's name and ``path`` + its name."""
     S = ex.photic.scene
     if q.unit_source == "MODEL":
-        return ex.model_iops(owner, q.unit_model, f"{label}Unit IOP Model ({path}.unit_model)",
-                             defaults={"water": "none"})
+        return export_iops.model_iops(ex, owner, q.unit_model,
+                                      f"{label}Unit IOP Model ({path}.unit_model)",
+                                      defaults={"water": "none"})
     a = per_band(owner, q.unit_absorption, q.unit_absorption_bands, f"{label}Unit Absorption",
                  f"{path}.unit_absorption", ex.bands, "absorption per unit density")
     b = per_band(owner, q.unit_scattering, q.unit_scattering_bands, f"{label}Unit Scattering",
                  f"{path}.unit_scattering", ex.bands, "scattering per unit density")
-    phase = ex.phase_function(owner, q.unit_phase_function, q.unit_hg_g, q.unit_ff_backscatter,
-                              prefix=f"{label}Unit ")
+    phase = export_iops.phase_function(ex, owner, q.unit_phase_function, q.unit_hg_g,
+                                       q.unit_ff_backscatter, prefix=f"{label}Unit ")
     return S.IOPs(a, [S.ScatteringComponent(b, phase)])
 
 
@@ -305,7 +308,7 @@ def density_grid(ex, obj, bounds, profile=None):
         n = len(profile.layers)
         base, units = S.IOPProfile(profile.z_top, aligned[:n]), aligned[n:]
     else:
-        base, *units = align_components([ex.iops(obj)] + units)
+        base, *units = align_components([export_iops.iops(ex, obj)] + units)
     if p.grid_source == "VOLUME":
         density, lo, hi, extra = volume_density(ex, owner, p.grid_box, fields)
         file = None

@@ -1,8 +1,9 @@
 """Photic's settings on Blender data: ``Object.photic``, ``Material.photic``, ``World.photic``
 and ``Scene.photic``.
 
-Every property carries its unit, range and meaning; the export (``export.py``) checks what a
-range cannot (per-band lists, NaN, closed water meshes) and names the property when it fails.
+Every property carries its unit, range and meaning; the export (``export.py`` and its
+``export_*`` modules) checks what a range cannot (per-band lists, NaN, closed water meshes) and
+names the property when it fails.
 Each group attaches itself to its ID type in ``register`` and removes itself in ``unregister``.
 """
 
