@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from photic.png import write_preview
+from photic.images import write_preview
 from photic.render import render
 from photic.scene import load_scene, save_scene
 from photic.scenes import stepped_pool

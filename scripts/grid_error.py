@@ -79,7 +79,7 @@ def main(argv=None) -> list:
                    "hybrid auto": doubling(1 << 12, 6)}
         ref = 1 << 21
     case = ErrorCase(f"sediment_plume_{'x'.join(map(str, shape))}",
-                     f"SEDIMENT PLUME {'X'.join(map(str, shape))}: LU",
+                     f"Sediment plume {' x '.join(map(str, shape))}: Lu",
                      "radiometers", lambda integrator, cone: plume_scene(integrator, cone, shape),
                      budgets, ref, "samples", pick)
     return run_error_bench(threads=args.threads, plot=args.plot, cases=[case],

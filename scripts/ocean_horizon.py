@@ -46,7 +46,7 @@ def scene_dict(view: str, resolution, samples: int) -> dict:
 
 
 def render_one(view: str, resolution, samples: int, png: str | None) -> dict:
-    from photic.png import write_preview
+    from photic.images import write_preview
     from photic.render import render
     from photic.scene import Scene
     t0 = time.perf_counter()

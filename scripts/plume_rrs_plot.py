@@ -32,7 +32,7 @@ def tone_mapped(exr: Path, percentile: float = 99.5) -> np.ndarray:
     """The Combined pass as 8-bit sRGB: exposure puts the ``percentile`` of the luminance at
     white (the beach and the brightest plume water may clip a little)."""
     import OpenEXR
-    from photic.png import srgb_encode
+    from photic.images import srgb_encode
     with OpenEXR.File(str(exr), separate_channels=True) as f:
         channels = {name: ch.pixels for part in f.parts for name, ch in part.channels.items()}
     rgb = np.stack([channels[f"ViewLayer.Combined.{c}"] for c in "RGB"], axis=-1).astype(float)
@@ -72,7 +72,7 @@ def main(argv=None) -> None:
                         help="where to write the PNGs (default: docs/images)")
     args = parser.parse_args(argv)
     from photic.derived import load_table
-    from photic.png import write_png
+    from photic.images import write_png
     examples = load_examples()
     table = load_table(args.render / "sediment_plume_0001_radiometers.json")
     rrs = examples.plume_rrs(table)

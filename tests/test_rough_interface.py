@@ -249,11 +249,23 @@ def test_glint_closed_form_matches_bsdf(aniso, waz):
 
 def test_reflectance_curves_and_plot(tmp_path):
     """The plotted quantity: from air, rough reflectance is Fresnel near normal incidence and
-    below it at grazing angles; the linear-axes plot helper writes an image."""
-    from photic.png import linear_panels
+    below it at grazing angles; the linear-axes plot helper draws the series and writes an image
+    of the requested size."""
+    from matplotlib.image import imread
+
+    from photic.plots import linear_panels, save_figure
     c = surface.reflectance_curves(winds=(7.0,), angles_deg=np.array([0.0, 85.0]))
     assert c["air_7"][0] == pytest.approx(c["fresnel_air"][0], abs=1e-3)
     assert c["air_7"][1] < np.interp(85.0, c["fresnel_angles"], c["fresnel_air"]) - 0.1
-    img = linear_panels([{"title": "T", "series": [("A", c["angles"], c["air_7"], (255, 0, 0))],
+    fig = linear_panels([{"title": "T", "series": [("A", c["angles"], c["air_7"], (255, 0, 0))],
                           "xlim": (0, 90), "ylim": (0, 1), "legend": True}], size=(200, 150))
-    assert img.shape == (150, 200, 3) and (img == [255, 0, 0]).all(-1).any()
+    (ax,) = fig.axes
+    (line,) = ax.get_lines()
+    assert line.get_label() == "A" and line.get_color() == (1.0, 0.0, 0.0)
+    assert np.array_equal(line.get_xdata(), c["angles"]) and np.allclose(line.get_ydata(), c["air_7"])
+    assert ax.get_title() == "T" and ax.get_xlim() == (0, 90) and ax.get_ylim() == (0, 1)
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["A"]
+    img = imread(save_figure(fig, tmp_path / "r.png"))
+    assert img.shape[:2] == (150, 200)
+    red = (img[:, :, 0] > 0.9) & (img[:, :, 1] < 0.1) & (img[:, :, 2] < 0.1)
+    assert red.any()

@@ -445,7 +445,7 @@ def _problem_case(quick: bool) -> ErrorCase:
         budgets = {"path": _doubling(1 << 16, 5), "hybrid cone 0": _doubling(1 << 13, 6),
                    "hybrid auto": _doubling(1 << 12, 6)}
         ref = 1 << 19
-    return ErrorCase("problem2_omega0.9", "PROBLEM 2, W0 = 0.9 (9 RADIOMETERS)", "radiometers",
+    return ErrorCase("problem2_omega0.9", r"Problem 2, $\omega_0$ = 0.9 (9 radiometers)", "radiometers",
                      make, budgets, ref, "samples")
 
 
@@ -478,7 +478,7 @@ def _pool_case(quick: bool, size: tuple[int, int] | None = None) -> ErrorCase:
                    "hybrid auto": _doubling(16, 6)}
         ref = 512
     return ErrorCase(f"stepped_pool_under_{res[0]}x{res[1]}",
-                     f"STEPPED POOL, UNDER CAMERA {res[0]}X{res[1]}", "image", make, budgets, ref, "spp")
+                     f"Stepped pool, under camera {res[0]} x {res[1]}", "image", make, budgets, ref, "spp")
 
 
 def _render_estimate(case: ErrorCase, scene: Scene, budget: int, seed: int, threads: int):
@@ -599,7 +599,7 @@ def format_error_table(records: list[dict], refs: dict) -> str:
 
 def plot_error_records(records: list[dict], refs: dict, path: str | Path) -> Path:
     """Write the log-log plot of error against time, one panel per scene (see run_error_bench)."""
-    from .png import loglog_panels, write_png
+    from .plots import loglog_panels, save_figure
 
     panels = []
     for scene in dict.fromkeys(r["scene"] for r in records):
@@ -611,11 +611,11 @@ def plot_error_records(records: list[dict], refs: dict, path: str | Path) -> Pat
             series.append((label, [r["seconds"] for r in rs], [max(r["rel_error"], 1e-4) for r in rs],
                            METHOD_COLORS.get(m, (0, 0, 0))))
         panels.append({"title": refs[scene].get("title", scene.replace("_", " ")),
-                       "xlabel": "TIME (S)", "ylabel": "REL. ERROR", "percent": True, "legend": True,
+                       "xlabel": "time (s)", "ylabel": "relative error", "percent": True, "legend": True,
                        "series": series,
                        "hlines": [(ERROR_TARGET, (110, 110, 110), "5%"),
-                                  (refs[scene]["noise"], (170, 170, 170), "REF NOISE")]})
-    return write_png(path, loglog_panels(panels))
+                                  (refs[scene]["noise"], (170, 170, 170), "reference noise")]})
+    return save_figure(loglog_panels(panels), path)
 
 
 def run_error_bench(quick: bool = False, threads: int = 2, plot: str | Path | None = DEFAULT_ERROR_PLOT,

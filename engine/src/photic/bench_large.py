@@ -552,7 +552,7 @@ def plot_records(records: list[dict], path: str | Path) -> Path:
     """Two log-log panels against triangles: time per sample and per ray, with a curve
     growing as log N through the first camera point for comparison; and memory, with a line
     proportional to N through the last build point."""
-    from .png import loglog_panels, write_png
+    from .plots import loglog_panels, save_figure
 
     seabed = [r for r in records if r["kind"] == "seabed"]
     n = [r["triangles"] for r in seabed]
@@ -563,19 +563,19 @@ def plot_records(records: list[dict], path: str | Path) -> Path:
     room = lambda ys: [(10.0 ** math.ceil(math.log10(max(ys)) + 1.0), (200, 200, 200), "")]
     log_ref = cam[0] * np.log(ref_n) / np.log(n[0])
     build = [r["build_growth_mb"] / 1024 for r in seabed]
-    time_panel = {"title": "CPU TIME PER SAMPLE (ALL THREADS)", "xlabel": "TRIANGLES", "ylabel": "MICROSECONDS",
+    time_panel = {"title": "CPU time per sample (all threads)", "xlabel": "triangles", "ylabel": "microseconds",
                   "legend": True, "series": [
                       ("camera (per pixel sample)", n, cam, (200, 40, 40)),
                       ("radiometer sample", n, [r["radiometers"]["cpu_s_per_sample"] * 1e6 for r in seabed], (40, 90, 200)),
                       ("random ray (trace_rays)", n, [r["rays"]["cpu_s_per_ray"] * 1e6 for r in seabed], (40, 150, 60)),
                       ("camera if growing as log N", ref_n, log_ref, (170, 170, 170))], "hlines": room(cam)}
-    mem_panel = {"title": "MEMORY", "xlabel": "TRIANGLES", "ylabel": "GB", "legend": True,
+    mem_panel = {"title": "Memory", "xlabel": "triangles", "ylabel": "GB", "legend": True,
                  "series": [
                      ("peak RSS of the process", n, [r["peak_rss_mb"] / 1024 for r in seabed], (200, 40, 40)),
                      ("build peak above baseline", n, build, (40, 90, 200)),
                      ("resident after compile", n, [max(r["resident_growth_mb"] / 1024, 1e-4) for r in seabed], (40, 150, 60)),
                      ("proportional to N", ref_n[[0, -1]], build[-1] * ref_n[[0, -1]] / n[-1], (170, 170, 170))]}
-    return write_png(path, loglog_panels([time_panel, mem_panel]))
+    return save_figure(loglog_panels([time_panel, mem_panel]), path)
 
 
 def machine_info() -> dict:

@@ -218,18 +218,18 @@ def reflectance_curves(winds=(2.0, 7.0, 15.0), angles_deg=None, eta: float = N_W
 
 
 def plot_reflectance(path: str | Path = DEFAULT_PLOT, winds=(2.0, 7.0, 15.0)) -> Path:
-    from .png import linear_panels, write_png
+    from .plots import linear_panels, save_figure
     c = reflectance_curves(winds)
     panels = []
-    for side, title, fres in (("air", "FROM AIR", "fresnel_air"), ("water", "FROM WATER", "fresnel_water")):
-        series = [("FRESNEL (FLAT)", c["fresnel_angles"], c[fres], (0, 0, 0))]
-        series += [(f"U = {U:g} M/S", c["angles"], c[f"{side}_{U:g}"], WIND_COLORS.get(U, (120, 0, 160)))
+    for side, title, fres in (("air", "from air", "fresnel_air"), ("water", "from water", "fresnel_water")):
+        series = [("Fresnel (flat)", c["fresnel_angles"], c[fres], (0, 0, 0))]
+        series += [(f"U = {U:g} m/s", c["angles"], c[f"{side}_{U:g}"], WIND_COLORS.get(U, (120, 0, 160)))
                    for U in winds]
-        panels.append({"title": f"ROUGH INTERFACE REFLECTANCE, {title}", "xlabel": "INCIDENCE (DEG)",
+        panels.append({"title": f"Rough interface reflectance, {title}", "xlabel": "incidence (deg)",
                        "ylabel": "R", "series": series, "xlim": (0, 90), "ylim": (0, 1),
                        "xticks": list(range(0, 91, 15)), "yticks": [0, 0.2, 0.4, 0.6, 0.8, 1.0],
                        "legend": True})
-    return write_png(path, linear_panels(panels, size=(520, 400)))
+    return save_figure(linear_panels(panels, size=(520, 400)), path)
 
 
 if __name__ == "__main__":
