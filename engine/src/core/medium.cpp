@@ -2,6 +2,22 @@
 
 namespace photic {
 
+void Water::varying_transmittance(const Vec3& a, const Vec3& b, double len, int nb, double* T,
+                                  const double* integral) const {
+    if (grid) {
+        double r[VoxelGrid::kMaxFields];
+        if (!integral) {
+            grid->integral(a, b, len, r);
+            integral = r;
+        }
+        grid_transmittance(a.z, b.z, len, integral, nb, T);
+    } else {
+        Spectrum tau;
+        add_optical_depth(&WaterLayer::c_beam, a.z, b.z, len, nb, &tau);
+        for (int k = 0; k < nb; ++k) T[k] = std::exp(-tau.v[k]);
+    }
+}
+
 void Water::set_forward_cone(const std::vector<PhaseFunction>& phases, double cone_half_angle, int nbands) {
     double xc = 1.0 - std::cos(cone_half_angle);
     for (auto& c : components) c.f = cone_half_angle > 0.0 ? phases[c.phase].cdf(xc) : 0.0;

@@ -75,22 +75,15 @@ struct Water {
     // the segment where the caller knows it already.
     void transmittance(const Vec3& a, const Vec3& b, double len, int nb, double* T, bool exact = true,
                        const double* integral = nullptr) const {
-        if (!varying() || !exact) {
+        if (!varying() || !exact) {  // (inline: the common case, once per beam evaluation)
             const Spectrum& c = layers[0].c_beam;
             for (int k = 0; k < nb; ++k) T[k] = std::exp(-c.v[k] * len);
-        } else if (grid) {
-            double r[VoxelGrid::kMaxFields];
-            if (!integral) {
-                grid->integral(a, b, len, r);
-                integral = r;
-            }
-            grid_transmittance(a.z, b.z, len, integral, nb, T);
         } else {
-            Spectrum tau;
-            add_optical_depth(&WaterLayer::c_beam, a.z, b.z, len, nb, &tau);
-            for (int k = 0; k < nb; ++k) T[k] = std::exp(-tau.v[k]);
+            varying_transmittance(a, b, len, nb, T, integral);
         }
     }
+    void varying_transmittance(const Vec3& a, const Vec3& b, double len, int nb, double* T,
+                               const double* integral) const;  // layers or grid
     // The optical depth of coefficient `what` (a, b, ...) over such a segment, added to *tau.
     void add_optical_depth(Spectrum WaterLayer::*what, const Vec3& a, const Vec3& b, double len, int nb,
                            Spectrum* tau) const {
