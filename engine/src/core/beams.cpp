@@ -802,9 +802,10 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool ex
                 // Attenuated from the surface down to x. In gridded water only the part of the
                 // ray between the heights where it may meet density is walked (none if it
                 // meets none: the shadow map of the beams' directions says).
-                double r[VoxelGrid::kMaxFields] = {};
+                double r[VoxelGrid::kMaxFields];
                 const double* integral = nullptr;
                 if (w.grid && exact) {
+                    std::fill_n(r, VoxelGrid::kMaxFields, 0.0);
                     double z0 = -kInf, z1 = kInf;
                     if (i >= flat_shade_ok.size() || !flat_shade_ok[i] || flat_shade.meets(x, &z0, &z1)) {
                         const double za = std::max(x.z, z0), zb = std::min(ocean_z, z1);
