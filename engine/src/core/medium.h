@@ -60,8 +60,8 @@ struct Water {
     double mis_bsum = 0.0;               // sum of all b (beam-direction MIS sampling)
     double mis_wsum = 0.0;               // sum of the components' weights (its pdf)
 
-    enum class Kind { kHomogeneous, kLayered, kGrid };
-    Kind kind() const { return grid ? Kind::kGrid : layers.size() > 1 ? Kind::kLayered : Kind::kHomogeneous; }
+    // Its kind: homogeneous (one layer, no grid), layered (stratified) or gridded (grid set,
+    // over one layer or several); varying(): not homogeneous.
     bool stratified() const { return layers.size() > 1; }
 
     // ---- What the integrator and the beams ask, whatever the kind ----
