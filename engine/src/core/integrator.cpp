@@ -8,7 +8,6 @@
 // straight, unrefracted connection exists (vertices in air); otherwise paths find it by
 // escaping into its disk.
 #include <cmath>
-#include <optional>
 #include <thread>
 #include <vector>
 #include "optics.h"
@@ -628,8 +627,7 @@ void Scene::camera_guides(int ci, int per_axis, int threads, float* albedo, floa
                             const Water& w = waters[medium];
                             Spectrum ta, tb;
                             const Vec3 e = o + d * t;
-                            w.add_optical_depth(&WaterLayer::a, o, e, t, nb, &ta);
-                            w.add_optical_depth(&WaterLayer::b, o, e, t, nb, &tb);
+                            w.add_optical_depths(o, e, t, nb, &ta, &tb);
                             for (int k = 0; k < nb; ++k) {
                                 double tau = ta.v[k] + tb.v[k];
                                 double tr = std::exp(-tau);

@@ -84,14 +84,17 @@ struct Water {
     }
     void varying_transmittance(const Vec3& a, const Vec3& b, double len, int nb, double* T,
                                const double* integral) const;  // layers or grid
-    // The optical depth of coefficient `what` (a, b, ...) over such a segment, added to *tau.
-    void add_optical_depth(Spectrum WaterLayer::*what, const Vec3& a, const Vec3& b, double len, int nb,
-                           Spectrum* tau) const {
-        add_optical_depth(what, a.z, b.z, len, nb, tau);
+    // The absorption and scattering optical depths over such a segment, added to *tau_a and
+    // *tau_b (one walk through a grid for both).
+    void add_optical_depths(const Vec3& a, const Vec3& b, double len, int nb, Spectrum* tau_a,
+                            Spectrum* tau_b) const {
+        add_optical_depth(&WaterLayer::a, a.z, b.z, len, nb, tau_a);
+        add_optical_depth(&WaterLayer::b, a.z, b.z, len, nb, tau_b);
         if (grid) {
             double r[VoxelGrid::kMaxFields];
             grid->integral(a, b, len, r);
-            grid_add_bands(r, what, nb, tau->v.data());
+            grid_add_bands(r, &WaterLayer::a, nb, tau_a->v.data());
+            grid_add_bands(r, &WaterLayer::b, nb, tau_b->v.data());
         }
     }
     // The water at a point: its base layer and, inside a grid, the densities there.

@@ -782,15 +782,12 @@ def side_by_side_png(photic_rgb: np.ndarray, cycles_rgb: np.ndarray, path, label
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from .images import srgb_encode
+
     scale = 1.0 / max(float(np.percentile(photic_rgb, 99)), 1e-30)
-
-    def srgb(x):
-        x = np.clip(x * scale, 0.0, 1.0)
-        return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
-
     fig, axes = plt.subplots(1, 2, figsize=(8, 4.3), dpi=100)
     for ax, img, label in zip(axes, (photic_rgb, cycles_rgb), labels):
-        ax.imshow(srgb(img))
+        ax.imshow(srgb_encode(img * scale))
         ax.set_title(label, fontsize=9)
         ax.axis("off")
     fig.tight_layout()
