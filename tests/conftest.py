@@ -37,3 +37,14 @@ def pytest_terminal_summary(terminalreporter):
     tr.write_line(f"{'test':<44} {'quantity':<34} {'value':>12} {'reference':>12} {'stderr':>10} {'z':>7}")
     for test, label, v, ref, se, z in _ZSCORES:
         tr.write_line(f"{test[:44]:<44} {label[:34]:<34} {v:12.6g} {ref:12.6g} {se:10.3g} {z:7.2f}")
+
+
+@pytest.fixture(autouse=True)
+def _unblock_embreex():
+    """The add-on's engine loader blocks embreex (sys.modules['embreex'] = None: in Blender it
+    clashes with the system Embree); a test that loads the add-on must not leave it blocked
+    for the tests after it in the same process (photic bench casts rays with embreex)."""
+    blocked_before = "embreex" in sys.modules and sys.modules["embreex"] is None
+    yield
+    if not blocked_before and "embreex" in sys.modules and sys.modules["embreex"] is None:
+        del sys.modules["embreex"]
