@@ -315,6 +315,7 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             Vec3 d_face;
             if (rough && !ocean_refraction(st.nf, w.ior, &d_face, &T, facet_u1, facet_u2)) continue;
             for (int k = 0; k < nbands; ++k) P.phi.v[k] = e_sun.v[k] * cs * area * T;
+            P.src_area = area;
             bool down = true, up = true;
             // A water mesh's prism whose rays end on different faces (an object's edge at the
             // finest level) runs on to its longest ray: the shadow rays of each query find
@@ -721,8 +722,7 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
     // the cross-section is only kept above a tiny fraction of the source cell's area
     // (beam_min_area_fraction, 1e-6): irradiance at most 1e6 times the cell's, and the flux
     // lost in slices thinner than that is negligible (flux conservation is tested to 1e-5).
-    double src_area = 0.5 * length(cross(P.v[1] - P.v[0], P.v[2] - P.v[0]));
-    double a_eff = std::max(std::fabs(S), beam_min_area_fraction * src_area);
+    double a_eff = std::max(std::fabs(S), beam_min_area_fraction * P.src_area);
     if (P.check_path || P.check_sun) {
         // The light reaching y entered the water at e, the point of the source triangle with
         // y's barycentric coordinates (exactly on the surface, so the shadow rays start on the
@@ -846,6 +846,14 @@ int Scene::lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey
             int cz = int(std::floor((y.z - grid.lo.z) / grid.cell.z));
             if (cx < 0 || cy < 0 || cz < 0 || cx >= grid.nx || cy >= grid.ny || cz >= grid.nz) continue;
             size_t c = (size_t(cz) * grid.ny + cy) * grid.nx + cx;
+            // The cell's candidates all at once: their keys and prisms are independent loads
+            // (misses in arrays of megabytes), issued together before the tests read them.
+            for (uint32_t k = grid.start[c]; k < grid.start[c + 1]; ++k) {
+                const uint32_t pi = grid.items[k];
+                __builtin_prefetch(&keys[pi]);
+                const char* pp = reinterpret_cast<const char*>(&prisms[pi]);
+                for (int line = 0; line < kPrismQueryLines; ++line) __builtin_prefetch(pp + 64 * line);
+            }
             for (uint32_t k = grid.start[c]; k < grid.start[c + 1]; ++k) {
                 const uint32_t pi = grid.items[k];
                 const PrismKey& K = keys[pi];

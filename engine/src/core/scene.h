@@ -6,6 +6,7 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -90,14 +91,15 @@ struct BeamSample {
 
 // A prism of refracted sunlight below one water-surface triangle (Watt 1990; Nishita &
 // Nakamae 1994): three vertex rays v_i + t d_i, sliced by planes normal to m.
-struct BeamPrism {
-    Vec3 v[3], d[3];
-    double len[3];     // where each vertex ray ends (hit surface, or attenuation cap)
-    bool hit[3];       // whether it ended on a surface
+// What a query reads comes first, in the order it reads it, in whole cache lines (the prisms
+// are megabytes read at random: a query fetches their first five lines at once).
+struct alignas(64) BeamPrism {
     Vec3 m;            // slicing normal
     double md[3], mv[3];
+    Vec3 v[3], d[3];
+    double len[3];     // where each vertex ray ends (hit surface, or attenuation cap)
     Vec3 n_src;        // source triangle normal (pointing to the air side)
-    Spectrum phi;      // flux entering the water through the triangle, per band
+    double src_area = 0.0;  // area of the source triangle
     int water = 0;
     // Shadow rays of each query: an object may cut the prism between its source and the query
     // point (check_path), or shade its source from the sun (check_sun).
@@ -110,8 +112,13 @@ struct BeamPrism {
     // The sun reflected by the water surface into the air (water = -1: no attenuation), lit
     // on the air side of its source.
     bool reflected = false;
+    Spectrum phi;      // flux entering the water through the triangle, per band
+    // (not read by queries)
+    bool hit[3];       // whether each vertex ray ended on a surface
     Vec3 lo, hi;       // bounding box
 };
+// The lines a query reads: up to the first bands of phi.
+constexpr int kPrismQueryLines = int((offsetof(BeamPrism, phi) + 3 * sizeof(double) + 63) / 64);
 
 // Component passes of the hybrid integrator.
 struct Components {
