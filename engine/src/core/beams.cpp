@@ -59,8 +59,8 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
     flat_air_beam = false;
     flat_d.clear();
     flat_e0.clear();
-    grid_ = BeamGrid();
-    air_grid_ = BeamGrid();
+    grid_.clear();
+    air_grid_.clear();
     if (!has_sun) return;
     const Vec3 s = normalize(sun_direction);
     beam_sun_dir = s;
@@ -544,7 +544,7 @@ void Scene::set_prism_checks(BeamPrism* P, bool uniform, bool ends_on_surface) c
 void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys_out, BeamGrid* grid_out) {
     HugeVector<PrismKey>& keys = *keys_out;
     BeamGrid& grid = *grid_out;
-    grid = BeamGrid();
+    grid.clear();
     keys.resize(prisms.size());
     for (size_t pi = 0; pi < prisms.size(); ++pi) {
         const BeamPrism& P = prisms[pi];
@@ -653,43 +653,44 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>
     grid.ny = int(std::floor(ext.y / cxy)) + 1;
     grid.nz = int(std::floor(ext.z / cz)) + 1;
     size_t ncell = size_t(grid.nx) * grid.ny * grid.nz;
-    // The (cell, prism) marks are collected in prism order, then sorted by cell stably (a
-    // counting sort: one allocation, where a list per cell made a build spend a tenth of its
-    // time in malloc and free): a cell lists its prisms in order, so a point's beams are
-    // summed in prism order whatever the cells.
-    std::vector<uint32_t> mark_cell, mark_prism;
-    std::vector<int64_t> last(ncell, -1);
-    for (size_t pi = 0; pi < prisms.size(); ++pi) {
-        const BeamPrism& P = prisms[pi];
-        double h0, h1;
-        span(P, &h0, &h1);
-        // pieces about a cell tall (horizontal slicing) or wide (grazing beams)
-        const double step = keys[pi].horizontal ? cz : cxy;
-        int pieces = std::max(1, std::min(100000, int(std::ceil((h1 - h0) / step))));
-        for (int k = 0; k < pieces; ++k) {
-            double ha = h0 + (h1 - h0) * k / pieces, hb = h0 + (h1 - h0) * (k + 1) / pieces;
-            Vec3 blo, bhi;
-            piece(P, ha, hb, &blo, &bhi);
-            int x0 = std::clamp(int((blo.x - lo.x) / cxy), 0, grid.nx - 1), x1 = std::clamp(int((bhi.x - lo.x) / cxy), 0, grid.nx - 1);
-            int y0 = std::clamp(int((blo.y - lo.y) / cxy), 0, grid.ny - 1), y1 = std::clamp(int((bhi.y - lo.y) / cxy), 0, grid.ny - 1);
-            int z0 = std::clamp(int((blo.z - lo.z) / cz), 0, grid.nz - 1), z1 = std::clamp(int((bhi.z - lo.z) / cz), 0, grid.nz - 1);
-            for (int z = z0; z <= z1; ++z)
-                for (int y = y0; y <= y1; ++y)
-                    for (int x = x0; x <= x1; ++x) {
-                        size_t c = (size_t(z) * grid.ny + y) * grid.nx + x;
-                        if (last[c] == int64_t(pi)) continue;
-                        last[c] = int64_t(pi);
-                        mark_cell.push_back(uint32_t(c));
-                        mark_prism.push_back(uint32_t(pi));
-                    }
+    // A cell lists its prisms in prism order, so that a point's beams are summed in prism
+    // order whatever the cells: the (cell, prism) marks are visited twice in prism order, to
+    // count each cell's and then to fill them (a counting sort without storing the marks).
+    // The arrays keep their memory from pass to pass: fresh ones cost a page fault and a
+    // zeroed page per 4 kB, a fifth of a build's time.
+    auto for_each_mark = [&](auto&& mark) {
+        grid.last.assign(ncell, ~uint32_t(0));
+        for (size_t pi = 0; pi < prisms.size(); ++pi) {
+            const BeamPrism& P = prisms[pi];
+            double h0, h1;
+            span(P, &h0, &h1);
+            // pieces about a cell tall (horizontal slicing) or wide (grazing beams)
+            const double step = keys[pi].horizontal ? cz : cxy;
+            int pieces = std::max(1, std::min(100000, int(std::ceil((h1 - h0) / step))));
+            for (int k = 0; k < pieces; ++k) {
+                double ha = h0 + (h1 - h0) * k / pieces, hb = h0 + (h1 - h0) * (k + 1) / pieces;
+                Vec3 blo, bhi;
+                piece(P, ha, hb, &blo, &bhi);
+                int x0 = std::clamp(int((blo.x - lo.x) / cxy), 0, grid.nx - 1), x1 = std::clamp(int((bhi.x - lo.x) / cxy), 0, grid.nx - 1);
+                int y0 = std::clamp(int((blo.y - lo.y) / cxy), 0, grid.ny - 1), y1 = std::clamp(int((bhi.y - lo.y) / cxy), 0, grid.ny - 1);
+                int z0 = std::clamp(int((blo.z - lo.z) / cz), 0, grid.nz - 1), z1 = std::clamp(int((bhi.z - lo.z) / cz), 0, grid.nz - 1);
+                for (int z = z0; z <= z1; ++z)
+                    for (int y = y0; y <= y1; ++y)
+                        for (int x = x0; x <= x1; ++x) {
+                            size_t c = (size_t(z) * grid.ny + y) * grid.nx + x;
+                            if (grid.last[c] == uint32_t(pi)) continue;
+                            grid.last[c] = uint32_t(pi);
+                            mark(c, uint32_t(pi));
+                        }
+            }
         }
-    }
+    };
     grid.start.assign(ncell + 1, 0);
-    for (uint32_t c : mark_cell) grid.start[c + 1]++;
+    for_each_mark([&](size_t c, uint32_t) { grid.start[c + 1]++; });
     for (size_t c = 0; c < ncell; ++c) grid.start[c + 1] += grid.start[c];
-    grid.items.resize(mark_cell.size());
-    std::vector<uint32_t> fill(grid.start.begin(), grid.start.end() - 1);
-    for (size_t i = 0; i < mark_cell.size(); ++i) grid.items[fill[mark_cell[i]]++] = mark_prism[i];
+    grid.items.resize(grid.start[ncell]);
+    grid.fill.assign(grid.start.begin(), grid.start.end() - 1);
+    for_each_mark([&](size_t c, uint32_t pi) { grid.items[grid.fill[c]++] = pi; });
 }
 
 bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, BeamSample* out,

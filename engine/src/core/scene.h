@@ -335,6 +335,15 @@ private:
         Vec3 lo, cell;
         int nx = 0, ny = 0, nz = 0;
         HugeVector<uint32_t> start, items;
+        HugeVector<uint32_t> fill, last;  // the build's scratch (kept: see build_grid)
+        // Empty (no cells), keeping the arrays' memory for the next pass.
+        void clear() {
+            sx = sy = 0.0;
+            lo = cell = Vec3();
+            nx = ny = nz = 0;
+            start.clear();
+            items.clear();
+        }
     } grid_;
     // Per prism, what a query reads first (beside it in memory, not in the large BeamPrism):
     // its water body and, for prisms sliced horizontally, the corners of the slice at height
