@@ -826,6 +826,36 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool ex
     return lookup(prisms, prism_keys_, grid_, x, medium, out, n, max, exact);
 }
 
+namespace {
+
+// Whether prism key K may cover y (primary-patch frame) for a query in `medium`; `shifted`: y
+// was moved from another period of the ocean patch. For horizontally sliced prisms, the
+// slice's corners and y's edge functions: prism_eval's barycentric test with a tolerance a
+// thousand times looser (rounding of the corners here differs from its own by ~1e-16
+// relative), so that it never rejects what prism_eval would accept.
+template <class Key>
+inline bool may_cover(const Key& K, const Vec3& y, int medium, bool shifted) {
+    if (K.water != medium) return false;
+    if (shifted && !K.periodic) return false;
+    if (!K.horizontal) return true;
+    const double h = K.up ? y.z : -y.z;
+    double px[3], py[3];
+    for (int q = 0; q < 3; ++q) {
+        px[q] = K.ax[q] + K.bx[q] * h;
+        py[q] = K.ay[q] + K.by[q] * h;
+    }
+    const double C = (px[1] - px[0]) * (py[2] - py[0]) - (px[2] - px[0]) * (py[1] - py[0]);
+    if (C == 0.0) return true;
+    const double c0 = (px[1] - y.x) * (py[2] - y.y) - (px[2] - y.x) * (py[1] - y.y);
+    const double c1 = (px[2] - y.x) * (py[0] - y.y) - (px[0] - y.x) * (py[2] - y.y);
+    const double tol = -1e-9 * std::fabs(C);
+    const double s0 = C > 0.0 ? c0 : -c0, s1 = C > 0.0 ? c1 : -c1;
+    const double s2 = (C > 0.0 ? C : -C) - s0 - s1;
+    return !(s0 < tol || s1 < tol || s2 < tol);
+}
+
+}  // namespace
+
 int Scene::lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
                   const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const {
     if (grid.nx == 0) return n;
@@ -847,41 +877,26 @@ int Scene::lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey
             int cz = int(std::floor((y.z - grid.lo.z) / grid.cell.z));
             if (cx < 0 || cy < 0 || cz < 0 || cx >= grid.nx || cy >= grid.ny || cz >= grid.nz) continue;
             size_t c = (size_t(cz) * grid.ny + cy) * grid.nx + cx;
-            // The cell's candidates all at once: their keys and prisms are independent loads
-            // (misses in arrays of megabytes), issued together before the tests read them.
-            for (uint32_t k = grid.start[c]; k < grid.start[c + 1]; ++k) {
-                const uint32_t pi = grid.items[k];
-                __builtin_prefetch(&keys[pi]);
-                const char* pp = reinterpret_cast<const char*>(&prisms[pi]);
-                for (int line = 0; line < kPrismQueryLines; ++line) __builtin_prefetch(pp + 64 * line);
-            }
-            for (uint32_t k = grid.start[c]; k < grid.start[c + 1]; ++k) {
-                const uint32_t pi = grid.items[k];
-                const PrismKey& K = keys[pi];
-                if (K.water != medium) continue;
-                if ((i != 0 || j != 0) && !K.periodic) continue;
-                if (K.horizontal) {
-                    const double h = K.up ? y.z : -y.z;
-                    // The slice's corners and y's edge functions; prism_eval's barycentric test
-                    // with a tolerance a thousand times looser (rounding of the corners here
-                    // differs from its own by ~1e-16 relative).
-                    double px[3], py[3];
-                    for (int q = 0; q < 3; ++q) {
-                        px[q] = K.ax[q] + K.bx[q] * h;
-                        py[q] = K.ay[q] + K.by[q] * h;
-                    }
-                    const double C = (px[1] - px[0]) * (py[2] - py[0]) - (px[2] - px[0]) * (py[1] - py[0]);
-                    if (C != 0.0) {
-                        const double c0 = (px[1] - y.x) * (py[2] - y.y) - (px[2] - y.x) * (py[1] - y.y);
-                        const double c1 = (px[2] - y.x) * (py[0] - y.y) - (px[0] - y.x) * (py[2] - y.y);
-                        const double tol = -1e-9 * std::fabs(C);
-                        const double s0 = C > 0.0 ? c0 : -c0, s1 = C > 0.0 ? c1 : -c1;
-                        const double s2 = (C > 0.0 ? C : -C) - s0 - s1;
-                        if (s0 < tol || s1 < tol || s2 < tol) continue;
-                    }
+            // In rounds, so that the misses of a cell's candidates overlap (independent loads
+            // into arrays of megabytes): the keys are all fetched at once and tested, then the
+            // prisms that passed are fetched at once and evaluated, in prism order.
+            const uint32_t k1 = grid.start[c + 1];
+            uint32_t k = grid.start[c];
+            for (uint32_t q = k; q < k1; ++q) __builtin_prefetch(&keys[grid.items[q]]);
+            while (k < k1) {
+                uint32_t pass[kMaxBeams];
+                int npass = 0;
+                for (; k < k1 && npass < kMaxBeams; ++k) {
+                    const uint32_t pi = grid.items[k];
+                    if (!may_cover(keys[pi], y, medium, i != 0 || j != 0)) continue;
+                    const char* pp = reinterpret_cast<const char*>(&prisms[pi]);
+                    for (int line = 0; line < kPrismQueryLines; ++line) __builtin_prefetch(pp + 64 * line);
+                    pass[npass++] = pi;
                 }
-                if (n >= max) return n;
-                if (prism_eval(prisms[pi], y, x, &out[n], exact)) ++n;
+                for (int q = 0; q < npass; ++q) {
+                    if (n >= max) return n;
+                    if (prism_eval(prisms[pass[q]], y, x, &out[n], exact)) ++n;
+                }
             }
         }
     return n;

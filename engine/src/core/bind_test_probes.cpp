@@ -2,6 +2,7 @@
 // arrays and shadow checks, and the voxel grid's walks, integrals and lookups, each checked
 // against an independent numpy computation. Kept apart from module.cpp, which binds what the
 // renderer uses.
+#include <chrono>
 #include <cmath>
 #include "bind_common.h"
 #include "scene.h"
@@ -36,6 +37,26 @@ py::tuple march_result(const VoxelGrid::Cursor& c, bool hit, const double* rho, 
 
 void bind_test_probes(py::class_<Scene>& scene) {
     scene
+        .def("time_beam_lookups", [](const Scene& s, py::array_t<double, py::array::c_style | py::array::forcecast> points,
+                                     int medium, int repeats) {
+            // The beams at each point, `repeats` times over (one thread, no GIL): (beams found
+            // in all, seconds). For measuring the lookups' cost at given points.
+            if (points.ndim() != 2 || points.shape(1) != 3) throw std::invalid_argument("points: expected (n, 3)");
+            const double* p = points.data();
+            const size_t n = size_t(points.shape(0));
+            long found = 0;
+            double seconds;
+            {
+                py::gil_scoped_release nogil;
+                thread_local BeamSample out[kMaxBeams];
+                const auto t0 = std::chrono::steady_clock::now();
+                for (int r = 0; r < repeats; ++r)
+                    for (size_t i = 0; i < n; ++i)
+                        found += s.beams_at(Vec3(p[3 * i], p[3 * i + 1], p[3 * i + 2]), medium, out, kMaxBeams);
+                seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            }
+            return py::make_tuple(found, seconds);
+        }, py::arg("points"), py::arg("medium"), py::arg("repeats") = 1)
         .def("beam_flux_through_plane", [](const Scene& s, double z) {
             // Sum over prisms of (irradiance on the horizontal plane at the slice centroid) x
             // (area of the prism's horizontal cross-section at z), band 0. Prisms sliced
