@@ -691,6 +691,14 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>
     grid.items.resize(grid.start[ncell]);
     grid.fill.assign(grid.start.begin(), grid.start.end() - 1);
     for_each_mark([&](size_t c, uint32_t pi) { grid.items[grid.fill[c]++] = pi; });
+    grid.cells.assign(ncell * BeamGrid::kCellWords, 0);
+    for (size_t c = 0; c < ncell; ++c) {
+        uint32_t* rec = &grid.cells[c * BeamGrid::kCellWords];
+        const uint32_t count = grid.start[c + 1] - grid.start[c];
+        rec[0] = count;
+        rec[1] = grid.start[c];
+        for (uint32_t q = 0; q < count && q < uint32_t(BeamGrid::kInline); ++q) rec[2 + q] = grid.items[grid.start[c] + q];
+    }
 }
 
 bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, BeamSample* out,
@@ -880,14 +888,16 @@ int Scene::lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey
             // In rounds, so that the misses of a cell's candidates overlap (independent loads
             // into arrays of megabytes): the keys are all fetched at once and tested, then the
             // prisms that passed are fetched at once and evaluated, in prism order.
-            const uint32_t k1 = grid.start[c + 1];
-            uint32_t k = grid.start[c];
-            for (uint32_t q = k; q < k1; ++q) __builtin_prefetch(&keys[grid.items[q]]);
-            while (k < k1) {
+            const uint32_t* rec = &grid.cells[c * BeamGrid::kCellWords];
+            const uint32_t count = rec[0], first = rec[1];
+            auto item = [&](uint32_t q) { return q < uint32_t(BeamGrid::kInline) ? rec[2 + q] : grid.items[first + q]; };
+            for (uint32_t q = 0; q < count; ++q) __builtin_prefetch(&keys[item(q)]);
+            uint32_t k = 0;
+            while (k < count) {
                 uint32_t pass[kMaxBeams];
                 int npass = 0;
-                for (; k < k1 && npass < kMaxBeams; ++k) {
-                    const uint32_t pi = grid.items[k];
+                for (; k < count && npass < kMaxBeams; ++k) {
+                    const uint32_t pi = item(k);
                     if (!may_cover(keys[pi], y, medium, i != 0 || j != 0)) continue;
                     const char* pp = reinterpret_cast<const char*>(&prisms[pi]);
                     for (int line = 0; line < kPrismQueryLines; ++line) __builtin_prefetch(pp + 64 * line);

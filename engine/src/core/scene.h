@@ -334,14 +334,18 @@ private:
         double sx = 0.0, sy = 0.0;  // cell (i, j, k) holds u = x + sx z, v = y + sy z, z
         Vec3 lo, cell;
         int nx = 0, ny = 0, nz = 0;
-        HugeVector<uint32_t> start, items;
-        HugeVector<uint32_t> fill, last;  // the build's scratch (kept: see build_grid)
+        // Cell c lists its prisms in items[start[c], start[c + 1]). What a query reads is
+        // cells[c * kCellWords ...]: the count, start[c], and the first kInline items, in
+        // one 32-byte record (one miss where start and items were two dependent ones).
+        static constexpr int kCellWords = 8, kInline = kCellWords - 2;
+        HugeVector<uint32_t> cells, items;
+        HugeVector<uint32_t> start, fill, last;  // the build's (kept: see build_grid)
         // Empty (no cells), keeping the arrays' memory for the next pass.
         void clear() {
             sx = sy = 0.0;
             lo = cell = Vec3();
             nx = ny = nz = 0;
-            start.clear();
+            cells.clear();
             items.clear();
         }
     } grid_;
