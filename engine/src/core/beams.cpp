@@ -864,6 +864,16 @@ inline bool may_cover(const Key& K, const Vec3& y, int medium, bool shifted) {
 
 }  // namespace
 
+void Scene::prefetch_beams(const Vec3& x, int medium) const {
+    const BeamGrid& grid = medium < 0 ? air_grid_ : grid_;
+    if (grid.nx == 0) return;
+    const int cx = int(std::floor((x.x + grid.sx * x.z - grid.lo.x) / grid.cell.x));
+    const int cy = int(std::floor((x.y + grid.sy * x.z - grid.lo.y) / grid.cell.y));
+    const int cz = int(std::floor((x.z - grid.lo.z) / grid.cell.z));
+    if (cx < 0 || cy < 0 || cz < 0 || cx >= grid.nx || cy >= grid.ny || cz >= grid.nz) return;
+    __builtin_prefetch(&grid.cells[((size_t(cz) * grid.ny + cy) * grid.nx + cx) * BeamGrid::kCellWords]);
+}
+
 int Scene::lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
                   const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const {
     if (grid.nx == 0) return n;

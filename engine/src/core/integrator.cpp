@@ -169,6 +169,9 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             clipped = short_ray && !h.valid;  // nothing before t_cast; what lies beyond is unknown
             c.segments++;
             t_hit = h.valid ? h.t : kInf;
+            // The beams on the surface met are looked up after those along the segment: their
+            // grid cell is fetched meanwhile.
+            if (hybrid && h.valid && h.kind == SurfaceKind::kOpaque) prefetch_beams(o + d * t_hit, medium);
 
             if (hybrid && has_beams()) {
                 Spectrum I, contribution;

@@ -223,6 +223,9 @@ public:
     // the top or base layer's coefficients only (no walk through the layers or voxels): enough
     // to rank the beams, as strongest_beam does.
     int beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool exact = true) const;
+    // Starts fetching the beam grid's cell at x (a hint: a later beams_at there then finds it
+    // in the cache).
+    void prefetch_beams(const Vec3& x, int medium) const;
     double beam_total_flux() const;   // sum of prism fluxes entering the water (band 0)
     double air_beam_total_flux() const;   // sum of the reflected prisms' fluxes (band 0)
 
