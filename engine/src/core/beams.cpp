@@ -271,8 +271,12 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
     // the refracted sun's in the water, then (air) the reflected sun's in the air, from the
     // smooth surfaces (a rough sea's reflection is sampled by its BSDF instead).
     auto make_prisms = [&](bool air, HugeVector<BeamPrism>* dest) {
-    std::vector<std::vector<BeamPrism>> out(src.size());
+    // Per source triangle, its prisms (lists kept from pass to pass: freed, their megabytes
+    // came back as fresh pages to be zeroed by the kernel in every build).
+    std::vector<std::vector<BeamPrism>>& out = prism_lists_;
+    if (out.size() < src.size()) out.resize(src.size());
     parallel_for(src.size(), threads, [&](size_t ti, int) {
+        out[ti].clear();
         const SourceTri& st = src[ti];
         const Water& w = waters[st.water];
         const bool rough = st.periodic && ocean_rough;  // the ocean patch's facets
@@ -375,8 +379,8 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             out[ti].push_back(P);
         }
     });
-    for (auto& v : out)
-        for (auto& p : v) dest->push_back(p);
+    for (size_t ti = 0; ti < src.size(); ++ti)
+        for (const BeamPrism& p : out[ti]) dest->push_back(p);
     };
     make_prisms(false, &prisms);
     if (need_air) make_prisms(true, &air_prisms);

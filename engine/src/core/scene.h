@@ -364,6 +364,7 @@ private:
         bool periodic;    // below (or above) the periodic ocean patch: looked up in every period
     };
     HugeVector<PrismKey> prism_keys_;
+    std::vector<std::vector<BeamPrism>> prism_lists_;  // build_beams' per-triangle lists (kept)
     BeamGrid air_grid_;
     HugeVector<PrismKey> air_keys_;
     static void build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys, BeamGrid* grid);
