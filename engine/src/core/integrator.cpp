@@ -259,13 +259,22 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                 const ScatterComponent& sc = w.components[pick];
                 double u1 = sc.f + rng.uniform() * (1.0 - sc.f), u2 = rng.uniform();
                 Vec3 nd = phases[sc.phase].sample_direction(d, u1, u2);
-                Spectrum beta_pre = beta;
-                BeamSample bs;
-                const bool beams_here = hybrid && has_beams() && strongest_beam(o, medium, &bs);
-                const Vec3 bd = bs.d;
-                // The share qb of the beam-direction samples here (beam_mis_share: 1 unless
-                // the water is clear along the beam).
-                const double qb = !beams_here ? 0.0 : camera ? beam_mis_share(w, bs) : 1.0;
+                // The strongest beam here (its direction bd) and the share qb of the
+                // beam-direction samples (beam_mis_share: 1 unless the water is clear along the
+                // beam). (Path tracing skips this: no spectra to copy or clear per collision.)
+                bool beams_here = false;
+                Vec3 bd;
+                double qb = 0.0;
+                double beta_pre[kMaxBands];
+                if (hybrid && has_beams()) {
+                    BeamSample bs;
+                    beams_here = strongest_beam(o, medium, &bs);
+                    if (beams_here) {
+                        bd = bs.d;
+                        qb = camera ? beam_mis_share(w, bs) : 1.0;
+                        std::copy_n(beta.v.begin(), nb, beta_pre);
+                    }
+                }
                 // Beam-guided continuation (exact mode, forward cone 0): a fraction
                 // kBeamGuide qb of the paths here go on in a direction drawn from the phase
                 // function around the beam's reverse instead, weighted by the mixture's pdf (at
@@ -309,7 +318,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                         beam_scatter_along(o, wb, hb.valid ? hb.t : kInf, medium, rng, &I);
                         const double den = mixture(pa_b, pb_b) + qb * pb_b;
                         for (int k = 0; k < nb; ++k)
-                            out.beam_volume.v[k] += beta_pre.v[k] * band_phase(k) * walk.absorbed(w, k) * I.v[k] / den;
+                            out.beam_volume.v[k] += beta_pre[k] * band_phase(k) * walk.absorbed(w, k) * I.v[k] / den;
                     }
                 }
                 d = nd;
