@@ -653,6 +653,7 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>
     }
     grid.lo = lo;
     grid.cell = Vec3(cxy, cxy, cz);
+    grid.inv_cell = Vec3(1.0 / cxy, 1.0 / cxy, 1.0 / cz);
     grid.nx = int(std::floor(ext.x / cxy)) + 1;
     grid.ny = int(std::floor(ext.y / cxy)) + 1;
     grid.nz = int(std::floor(ext.z / cz)) + 1;
@@ -707,17 +708,36 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>
 
 bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, BeamSample* out,
                        bool exact) const {
-    double h = dot(P.m, y);
-    double t[3];
-    Vec3 p[3];
-    for (int j = 0; j < 3; ++j) {
-        t[j] = (h - P.mv[j]) / P.md[j];
-        p[j] = P.v[j] + P.d[j] * t[j];
+    // The slice through y: its corners p_j on the vertex rays (at t_j), its area S along m
+    // and y's barycentric coordinates l_j in it.
+    double t[3], S, l0, l1;
+    if (P.m.x == 0.0 && P.m.y == 0.0) {
+        // Horizontal slices (most prisms): only the z components of the products along m are
+        // nonzero; the same operations as the general case's on them, so the same results.
+        const double mz = P.m.z, h = mz * y.z;
+        double px[3], py[3];
+        for (int j = 0; j < 3; ++j) {
+            t[j] = (h - P.mv[j]) / P.md[j];
+            px[j] = P.v[j].x + P.d[j].x * t[j];
+            py[j] = P.v[j].y + P.d[j].y * t[j];
+        }
+        auto cross_z = [](double ax, double ay, double bx, double by) { return ax * by - ay * bx; };
+        S = 0.5 * (cross_z(px[1] - px[0], py[1] - py[0], px[2] - px[0], py[2] - py[0]) * mz);
+        if (S == 0.0) return false;
+        l0 = 0.5 * (cross_z(px[1] - y.x, py[1] - y.y, px[2] - y.x, py[2] - y.y) * mz) / S;
+        l1 = 0.5 * (cross_z(px[2] - y.x, py[2] - y.y, px[0] - y.x, py[0] - y.y) * mz) / S;
+    } else {
+        const double h = dot(P.m, y);
+        Vec3 p[3];
+        for (int j = 0; j < 3; ++j) {
+            t[j] = (h - P.mv[j]) / P.md[j];
+            p[j] = P.v[j] + P.d[j] * t[j];
+        }
+        S = 0.5 * dot(cross(p[1] - p[0], p[2] - p[0]), P.m);
+        if (S == 0.0) return false;
+        l0 = 0.5 * dot(cross(p[1] - y, p[2] - y), P.m) / S;
+        l1 = 0.5 * dot(cross(p[2] - y, p[0] - y), P.m) / S;
     }
-    double S = 0.5 * dot(cross(p[1] - p[0], p[2] - p[0]), P.m);
-    if (S == 0.0) return false;
-    double l0 = 0.5 * dot(cross(p[1] - y, p[2] - y), P.m) / S;
-    double l1 = 0.5 * dot(cross(p[2] - y, p[0] - y), P.m) / S;
     double l2 = 1.0 - l0 - l1;
     const double tol = -1e-12;
     if (l0 < tol || l1 < tol || l2 < tol) return false;
@@ -871,11 +891,12 @@ inline bool may_cover(const Key& K, const Vec3& y, int medium, bool shifted) {
 void Scene::prefetch_beams(const Vec3& x, int medium) const {
     const BeamGrid& grid = medium < 0 ? air_grid_ : grid_;
     if (grid.nx == 0) return;
-    const int cx = int(std::floor((x.x + grid.sx * x.z - grid.lo.x) / grid.cell.x));
-    const int cy = int(std::floor((x.y + grid.sy * x.z - grid.lo.y) / grid.cell.y));
-    const int cz = int(std::floor((x.z - grid.lo.z) / grid.cell.z));
-    if (cx < 0 || cy < 0 || cz < 0 || cx >= grid.nx || cy >= grid.ny || cz >= grid.nz) return;
-    __builtin_prefetch(&grid.cells[((size_t(cz) * grid.ny + cy) * grid.nx + cx) * BeamGrid::kCellWords]);
+    // (a hint: the cell by multiplications, which may differ from lookup's at a cell's edge)
+    const double fx = (x.x + grid.sx * x.z - grid.lo.x) * grid.inv_cell.x;
+    const double fy = (x.y + grid.sy * x.z - grid.lo.y) * grid.inv_cell.y;
+    const double fz = (x.z - grid.lo.z) * grid.inv_cell.z;
+    if (!(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < grid.nx && fy < grid.ny && fz < grid.nz)) return;
+    __builtin_prefetch(&grid.cells[((size_t(fz) * grid.ny + size_t(fy)) * grid.nx + size_t(fx)) * BeamGrid::kCellWords]);
 }
 
 int Scene::lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,

@@ -335,7 +335,7 @@ public:
 private:
     struct BeamGrid {  // uniform grid over prism pieces (primary patch frame, sheared)
         double sx = 0.0, sy = 0.0;  // cell (i, j, k) holds u = x + sx z, v = y + sy z, z
-        Vec3 lo, cell;
+        Vec3 lo, cell, inv_cell;
         int nx = 0, ny = 0, nz = 0;
         // Cell c lists its prisms in items[start[c], start[c + 1]). What a query reads is
         // cells[c * kCellWords ...]: the count, start[c], and the first kInline items, in
@@ -346,7 +346,7 @@ private:
         // Empty (no cells), keeping the arrays' memory for the next pass.
         void clear() {
             sx = sy = 0.0;
-            lo = cell = Vec3();
+            lo = cell = inv_cell = Vec3();
             nx = ny = nz = 0;
             cells.clear();
             items.clear();
