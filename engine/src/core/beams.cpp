@@ -52,6 +52,18 @@ double Scene::air_beam_total_flux() const {
     return s;
 }
 
+namespace {
+
+// Room for n items with a quarter to spare: the sizes vary from pass to pass (the sun's
+// direction is drawn anew), and an array grown to the exact size was allocated afresh (and its
+// pages faulted in and zeroed) at nearly every pass that needed a few more items.
+template <class V>
+void make_room(V& v, size_t n) {
+    if (n > v.capacity()) v.reserve(n + n / 4);
+}
+
+}  // namespace
+
 void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2) {
     prisms.clear();
     air_prisms.clear();
@@ -379,6 +391,9 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             out[ti].push_back(P);
         }
     });
+    size_t total = dest->size();
+    for (size_t ti = 0; ti < src.size(); ++ti) total += out[ti].size();
+    make_room(*dest, total);
     for (size_t ti = 0; ti < src.size(); ++ti)
         for (const BeamPrism& p : out[ti]) dest->push_back(p);
     };
@@ -549,6 +564,7 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>
     HugeVector<PrismKey>& keys = *keys_out;
     BeamGrid& grid = *grid_out;
     grid.clear();
+    make_room(keys, prisms.size());
     keys.resize(prisms.size());
     for (size_t pi = 0; pi < prisms.size(); ++pi) {
         const BeamPrism& P = prisms[pi];
@@ -664,6 +680,7 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>
     // The arrays keep their memory from pass to pass: fresh ones cost a page fault and a
     // zeroed page per 4 kB, a fifth of a build's time.
     auto for_each_mark = [&](auto&& mark) {
+        make_room(grid.last, ncell);
         grid.last.assign(ncell, ~uint32_t(0));
         for (size_t pi = 0; pi < prisms.size(); ++pi) {
             const BeamPrism& P = prisms[pi];
@@ -690,9 +707,13 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>
             }
         }
     };
+    make_room(grid.start, ncell + 1);
+    make_room(grid.fill, ncell);
+    make_room(grid.cells, ncell * BeamGrid::kCellWords);
     grid.start.assign(ncell + 1, 0);
     for_each_mark([&](size_t c, uint32_t) { grid.start[c + 1]++; });
     for (size_t c = 0; c < ncell; ++c) grid.start[c + 1] += grid.start[c];
+    make_room(grid.items, grid.start[ncell]);
     grid.items.resize(grid.start[ncell]);
     grid.fill.assign(grid.start.begin(), grid.start.end() - 1);
     for_each_mark([&](size_t c, uint32_t pi) { grid.items[grid.fill[c]++] = pi; });
