@@ -131,3 +131,50 @@ def test_camera_in_a_caustic_and_looking_at_total_internal_reflection():
     img = res.images["focus"]
     assert np.isfinite(img.mean).all() and (img.mean >= 0).all()
     assert img.components["beam_surface"].max() > 0 or img.components["beam_volume"].max() > 0
+
+
+def test_lookups_find_exactly_the_prisms_covering_a_point():
+    """The beam grid's lookups (cell records, key tests, prefetched rounds) against a brute
+    force over all prisms and their periodic images: at random points from just below the
+    surface to beyond the crests' foci, beams_at returns one beam per prism whose slice holds
+    the point, including at foci where many prisms overlap."""
+    core = beams_for(wavy_sea())
+    v, d, length = (np.asarray(a) for a in core.prism_arrays()[:3])
+    assert (d[:, :, 2] < -0.1).all()  # all sliced horizontally (the brute force below assumes it)
+    rng = np.random.default_rng(11)
+    pts = np.column_stack([rng.uniform(-1.5, 2.5, 400), rng.uniform(-1.5, 2.5, 400), rng.uniform(-16.0, -0.5, 400)])
+    counts = []
+    for p in pts:
+        t = (v[:, :, 2] - p[2]) / -d[:, :, 2]  # along each vertex ray, to the point's height
+        c = v + d * t[:, :, None]              # the slices' corners there (primary period)
+        n = 0
+        # the periods whose images of the slices can hold the point (rays drift metres sideways)
+        for i in range(int(np.ceil(p[0] - c[:, :, 0].max())), int(np.floor(p[0] - c[:, :, 0].min())) + 1):
+            for j in range(int(np.ceil(p[1] - c[:, :, 1].max())), int(np.floor(p[1] - c[:, :, 1].min())) + 1):
+                y = p - np.array([i * 1.0, j * 1.0, 0.0])
+                e0 = (c[:, 1, 0] - y[0]) * (c[:, 2, 1] - y[1]) - (c[:, 2, 0] - y[0]) * (c[:, 1, 1] - y[1])
+                e1 = (c[:, 2, 0] - y[0]) * (c[:, 0, 1] - y[1]) - (c[:, 0, 0] - y[0]) * (c[:, 2, 1] - y[1])
+                area = (c[:, 1, 0] - c[:, 0, 0]) * (c[:, 2, 1] - c[:, 0, 1]) - (c[:, 2, 0] - c[:, 0, 0]) * (c[:, 1, 1] - c[:, 0, 1])
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    l0, l1 = e0 / area, e1 / area
+                l2 = 1.0 - l0 - l1
+                inside = (l0 >= 0) & (l1 >= 0) & (l2 >= 0) & (area != 0)
+                l_here = l0 * t[:, 0] + l1 * t[:, 1] + l2 * t[:, 2]
+                l_end = l0 * length[:, 0] + l1 * length[:, 1] + l2 * length[:, 2]
+                n += int(np.count_nonzero(inside & (l_here >= 0) & (l_here <= l_end)))
+        got = len(core.beams_at(tuple(map(float, p)), 0))
+        assert got == n, (p, got, n)
+        counts.append(n)
+    assert max(counts) > 6  # cells with more candidates than their records hold
+
+
+def test_lookup_timing_probe_counts_the_same_beams():
+    """time_beam_lookups (the benchmark probe of the lookups' cost) finds the beams beams_at
+    finds, and reports a positive time."""
+    core = beams_for(wavy_sea())
+    pts = np.random.default_rng(5).uniform([-1.0, -1.0, -12.0], [2.0, 2.0, -0.5], (200, 3))
+    found, seconds = core.time_beam_lookups(pts, 0, 2)
+    assert found == 2 * sum(len(core.beams_at(tuple(map(float, p)), 0)) for p in pts)
+    assert seconds > 0.0
+    with pytest.raises(ValueError):
+        core.time_beam_lookups(pts[:, :2], 0)
