@@ -92,7 +92,8 @@ struct BeamSample {
 // A prism of refracted sunlight below one water-surface triangle (Watt 1990; Nishita &
 // Nakamae 1994): three vertex rays v_i + t d_i, sliced by planes normal to m.
 // What a query reads comes first, in the order it reads it, in whole cache lines (the prisms
-// are megabytes read at random: a query fetches their first five lines at once).
+// are megabytes read at random: a lookup prefetches the first kPrismQueryLines lines of every
+// prism that passed its key test, at once).
 struct alignas(64) BeamPrism {
     Vec3 m;            // slicing normal
     double md[3], mv[3];
@@ -117,7 +118,7 @@ struct alignas(64) BeamPrism {
     bool hit[3];       // whether each vertex ray ended on a surface
     Vec3 lo, hi;       // bounding box
 };
-// The lines a query reads: up to the first bands of phi.
+// The lines a query reads: up to phi's first three bands.
 constexpr int kPrismQueryLines = int((offsetof(BeamPrism, phi) + 3 * sizeof(double) + 63) / 64);
 
 // Component passes of the hybrid integrator.
