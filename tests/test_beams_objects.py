@@ -267,3 +267,37 @@ def test_tank_prisms_test_shadows_where_objects_may_cut_them():
         assert cores["objects"].beams_at(tuple(p), 0) == cores["free"].beams_at(tuple(p), 0), p
         far += 1
     assert far > 100
+
+
+def test_cameras_do_not_change_the_beams():
+    """The reflected beams end at the bounds of what they can light (meshes, radiometers, the
+    ocean), not at a camera high above: the stepped pool's beams in the air (on the deck and the
+    walls above the water) and in the water are the same with its camera at 3.8 m or without it."""
+    from photic.render import sun_direction
+    from photic.scenes import DECK_Z, POOL_X, POOL_Y, stepped_pool
+    cores = {}
+    for name, keep in (("both", ("above", "under")), ("under", ("under",))):
+        s = stepped_pool(resolution=(8, 8))
+        s.cameras = [c for c in s.cameras if c.name in keep]
+        s.validate()
+        core = compile_scene(s, hybrid=True, forward_cone_deg=0.0)
+        core.build_beams(tuple(sun_direction(s, 0.5, 0.5)), 0)
+        cores[name] = core
+    rng = np.random.default_rng(3)
+    # above the water, below the deck's top (the walls' faces there, air radiometers)
+    air = rng.uniform([POOL_X[0], POOL_Y[0], 0.05], [POOL_X[1], POOL_Y[1], DECK_Z - 0.01], (300, 3))
+    lit = 0
+    for p in air:
+        a, b = cores["both"].beams_at(tuple(p), -1), cores["under"].beams_at(tuple(p), -1)
+        assert a == b, p
+        lit += len(a) > 0
+    assert lit > 100  # the sun reflected by the waves
+    # the reflected prisms end at the deck's height (plus a margin of 1e-3 of the scene), not
+    # at the camera's 3.8 m
+    for core in cores.values():
+        v, d, length = (np.asarray(x) for x in core.prism_arrays(air=True)[:3])
+        assert len(v) > 1000
+        assert (v + d * length[:, :, None])[:, :, 2].max() < DECK_Z + 0.05
+    water = rng.uniform([POOL_X[0], POOL_Y[0], -0.55], [POOL_X[1], POOL_Y[1], -0.05], (200, 3))
+    for p in water:
+        assert cores["both"].beams_at(tuple(p), 0) == cores["under"].beams_at(tuple(p), 0), p

@@ -80,16 +80,17 @@ void bind_test_probes(py::class_<Scene>& scene) {
             }
             return flux;
         }, py::arg("z"))
-        .def("prism_arrays", [](const Scene& s) {
+        .def("prism_arrays", [](const Scene& s, bool air) {
             // (start vertices (N,3,3), directions (N,3,3), lengths (N,3), flux band 0 (N,),
-            //  whether each ray ended on a surface (N,3))
-            size_t n = s.prisms.size();
+            //  whether each ray ended on a surface (N,3)); air: the reflected prisms in the air
+            const auto& prisms = air ? s.air_prisms : s.prisms;
+            size_t n = prisms.size();
             DArray v({py::ssize_t(n), py::ssize_t(3), py::ssize_t(3)}), d({py::ssize_t(n), py::ssize_t(3), py::ssize_t(3)});
             DArray len({py::ssize_t(n), py::ssize_t(3)});
             DArray phi{py::ssize_t(n)};
             py::array_t<bool> hit({py::ssize_t(n), py::ssize_t(3)});
             for (size_t i = 0; i < n; ++i) {
-                const auto& P = s.prisms[i];
+                const auto& P = prisms[i];
                 for (int j = 0; j < 3; ++j) {
                     for (int c = 0; c < 3; ++c) {
                         v.mutable_at(i, j, c) = P.v[j][c];
@@ -101,7 +102,7 @@ void bind_test_probes(py::class_<Scene>& scene) {
                 phi.mutable_at(i) = P.phi.v[0];
             }
             return py::make_tuple(v, d, len, phi, hit);
-        })
+        }, py::arg("air") = false)
         .def("prism_checks", [](const Scene& s) {
             // Per prism, which shadow rays its queries test: (N, 2) of (path, sun).
             py::array_t<bool> c({py::ssize_t(s.prisms.size()), py::ssize_t(2)});

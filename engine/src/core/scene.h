@@ -372,7 +372,7 @@ private:
     // The prisms of one set (keys and grid) covering x, appended to out from index n.
     int lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
                const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const;
-    // Scene bounds (meshes, sensors, the ocean patch): where reflected beams can end.
+    // The bounds of meshes, radiometers and the ocean (not cameras): where reflected beams end.
     Vec3 bounds_lo_{-1, -1, -1}, bounds_hi_{1, 1, 1};
     // Whether an opaque triangle may lie in the union of boxes [lo_i, hi_i] (grown by tol),
     // other than those entirely on or behind the plane through plane_p with normal plane_n
