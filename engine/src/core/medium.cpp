@@ -18,6 +18,20 @@ void Water::varying_transmittance(const Vec3& a, const Vec3& b, double len, int 
     }
 }
 
+void WaterLayer::set_path_coefficients(const std::vector<ScatterComponent>& components, int nbands) {
+    b_path = Spectrum();
+    comp_b_path.assign(components.size(), Spectrum());
+    for (size_t ci = 0; ci < components.size(); ++ci)
+        for (int k = 0; k < nbands; ++k) {
+            comp_b_path[ci].v[k] = comp_b[ci].v[k] * (1.0 - components[ci].f);
+            b_path.v[k] += comp_b_path[ci].v[k];
+        }
+    for (int k = 0; k < nbands; ++k) {
+        c_beam.v[k] = a.v[k] + b_path.v[k];
+        c_path.v[k] = c_beam.v[k];
+    }
+}
+
 void Water::set_forward_cone(const std::vector<PhaseFunction>& phases, double cone_half_angle, int nbands) {
     double xc = 1.0 - std::cos(cone_half_angle);
     for (auto& c : components) c.f = cone_half_angle > 0.0 ? phases[c.phase].cdf(xc) : 0.0;
@@ -28,23 +42,13 @@ void Water::set_forward_cone(const std::vector<PhaseFunction>& phases, double co
         for (int k = 0; k < nbands; ++k) b_max = std::max(b_max, L.b.v[k]);
     double c_mean_min = kInf;
     for (auto& L : layers) {
-        L.b_path = Spectrum();
-        L.comp_b_path.assign(components.size(), Spectrum());
-        for (size_t ci = 0; ci < components.size(); ++ci) {
-            const double f = components[ci].f;
-            for (int k = 0; k < nbands; ++k) {
-                L.comp_b_path[ci].v[k] = L.comp_b[ci].v[k] * (1.0 - f);
-                L.b_path.v[k] += L.comp_b_path[ci].v[k];
-            }
-        }
+        L.set_path_coefficients(components, nbands);
         L.c_path_mean = 0.0;
         L.a_min = L.a.v[0];
         L.majorant = 0.0;
         for (int k = 0; k < nbands; ++k) {
             L.majorant = std::max(L.majorant, L.b_path.v[k]);
             majorant = std::max(majorant, L.b_path.v[k]);
-            L.c_beam.v[k] = L.a.v[k] + L.b_path.v[k];
-            L.c_path.v[k] = L.c_beam.v[k];
             L.c_path_mean += L.c_path.v[k] / nbands;
             L.a_min = std::min(L.a_min, L.a.v[k]);
             c_beam_min = std::min(c_beam_min, L.c_beam.v[k]);
@@ -78,19 +82,7 @@ void Water::set_forward_cone(const std::vector<PhaseFunction>& phases, double co
 void Water::set_grid_coefficients(int nbands) {
     VoxelGrid& g = *grid;
     const int nf = grid_fields();
-    for (WaterLayer& U : grid_units) {
-        U.b_path = Spectrum();
-        U.comp_b_path.assign(components.size(), Spectrum());
-        for (size_t ci = 0; ci < components.size(); ++ci)
-            for (int k = 0; k < nbands; ++k) {
-                U.comp_b_path[ci].v[k] = U.comp_b[ci].v[k] * (1.0 - components[ci].f);
-                U.b_path.v[k] += U.comp_b_path[ci].v[k];
-            }
-        for (int k = 0; k < nbands; ++k) {
-            U.c_beam.v[k] = U.a.v[k] + U.b_path.v[k];
-            U.c_path.v[k] = U.c_beam.v[k];
-        }
-    }
+    for (WaterLayer& U : grid_units) U.set_path_coefficients(components, nbands);
     grid_scatter_fields = 0;
     grid_comp_fields.assign(components.size(), 0u);
     for (int f = 0; f < nf; ++f)

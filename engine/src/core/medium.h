@@ -43,6 +43,8 @@ struct WaterLayer {
     Spectrum c_beam;                     // beam attenuation a + b (1 - f)
     Spectrum c_path;                     // a + b_path: attenuation of light along a path
     double c_path_mean = 0.0;
+    // comp_b_path, b_path, c_beam and c_path from a, comp_b and the components' cone fractions.
+    void set_path_coefficients(const std::vector<ScatterComponent>& components, int nbands);
 };
 
 struct Water {

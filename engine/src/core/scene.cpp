@@ -75,29 +75,9 @@ void Scene::commit() {
     }
     meshes_lo_ = lo;
     meshes_hi_ = hi;
-    // Where reflected beams can be looked up (surfaces, radiometers) and start from (water
-    // surfaces): the scene's bounds without its cameras, which beams never light (a camera high
-    // above made the air prisms metres long, and their grid tens of millions of marks).
-    Vec3 reach_lo = lo, reach_hi = hi;
-    auto reach = [&](double x, double y, double z) {
-        reach_lo = Vec3(std::min(reach_lo.x, x), std::min(reach_lo.y, y), std::min(reach_lo.z, z));
-        reach_hi = Vec3(std::max(reach_hi.x, x), std::max(reach_hi.y, y), std::max(reach_hi.z, z));
-    };
-    for (const auto& c : cameras) grow(c.position.x, c.position.y, c.position.z);
-    for (const auto& r : radiometers) {
-        grow(r.position.x, r.position.y, r.position.z);
-        reach(r.position.x, r.position.y, r.position.z);
-    }
-    if (ocean_water >= 0) {
-        grow(0, 0, ocean_z);
-        reach(0, 0, ocean_z);
-    }
-    if (has_bottom) {
-        grow(0, 0, bottom_z);
-        reach(0, 0, bottom_z);
-    }
-    extent_ = lo.x <= hi.x ? std::max(1e-3, length(hi - lo)) : 1.0;
-    eps_ = 1e-6 * extent_;
+    for (const auto& r : radiometers) grow(r.position.x, r.position.y, r.position.z);
+    if (ocean_water >= 0) grow(0, 0, ocean_z);
+    if (has_bottom) grow(0, 0, bottom_z);
 
     if (scene_) rtcReleaseScene(scene_);
     scene_ = build_embree_scene(device_, ptrs);
@@ -116,13 +96,16 @@ void Scene::commit() {
         if (patch_normals.size() != patch_vertices.size()) smooth_patch_normals();
         grow(patch_x0, patch_y0, patch_zmin);
         grow(patch_x0 + patch_lx, patch_y0 + patch_ly, patch_zmax);
-        reach(patch_x0, patch_y0, patch_zmin);
-        reach(patch_x0 + patch_lx, patch_y0 + patch_ly, patch_zmax);
-        extent_ = std::max(1e-3, length(hi - lo));
-        eps_ = 1e-6 * extent_;
     }
-    bounds_lo_ = reach_lo.x <= reach_hi.x ? reach_lo : Vec3(-1, -1, -1);
-    bounds_hi_ = reach_lo.x <= reach_hi.x ? reach_hi : Vec3(1, 1, 1);
+    // Where reflected beams can be looked up (surfaces, radiometers) and start from (water
+    // surfaces): the bounds so far, without the cameras, which beams never light (a camera high
+    // above made the air prisms metres long, and their grid tens of millions of marks).
+    bounds_lo_ = lo.x <= hi.x ? lo : Vec3(-1, -1, -1);
+    bounds_hi_ = lo.x <= hi.x ? hi : Vec3(1, 1, 1);
+    // The scene's extent (and the offsets from surfaces) counts every sensor.
+    for (const auto& c : cameras) grow(c.position.x, c.position.y, c.position.z);
+    extent_ = lo.x <= hi.x ? std::max(1e-3, length(hi - lo)) : 1.0;
+    eps_ = 1e-6 * extent_;
     set_forward_cone(cone_half_angle);
     // Rays start on the near clipping plane, so the medium is the one there.
     for (auto& c : cameras) c.medium = medium_at(c.position + c.forward * c.clip_start);
