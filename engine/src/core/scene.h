@@ -357,13 +357,20 @@ private:
     // its water body and, for prisms sliced horizontally, the corners of the slice at height
     // h = -z as x = ax + bx h, y = ay + by h, for a point-in-triangle test that rejects most
     // candidates before prism_eval (conservatively: it accepts whatever prism_eval would).
-    struct PrismKey {
+    // Two whole cache lines (104 bytes used), both fetched ahead by prefetch_key: a key
+    // straddling three lines, of which the first alone was fetched, cost a second miss.
+    struct alignas(128) PrismKey {
         double ax[3], bx[3], ay[3], by[3];
         int water;
         bool horizontal;  // sliced by horizontal planes: h = -z (down) or z (up)
         bool up;
         bool periodic;    // below (or above) the periodic ocean patch: looked up in every period
     };
+    static void prefetch_key(const PrismKey& K) {
+        const char* p = reinterpret_cast<const char*>(&K);
+        __builtin_prefetch(p);
+        __builtin_prefetch(p + 64);
+    }
     HugeVector<PrismKey> prism_keys_;
     std::vector<std::vector<BeamPrism>> prism_lists_;  // build_beams' per-triangle lists (kept)
     BeamGrid air_grid_;
