@@ -437,9 +437,9 @@ bool gather_near_triangle(RTCPointQueryFunctionArguments* args) {
 
 }  // namespace
 
-bool Scene::opaque_in_boxes(const std::vector<std::pair<Vec3, Vec3>>& boxes, double tol, const Vec3& plane_n,
+int Scene::first_opaque_box(const std::vector<std::pair<Vec3, Vec3>>& boxes, double tol, const Vec3& plane_n,
                             const Vec3& plane_p, double plane_tol) const {
-    if (!scene_ || boxes.empty()) return false;
+    if (!scene_ || boxes.empty()) return -1;
     NearTriangles q{this, Vec3(kInf, kInf, kInf), Vec3(-kInf, -kInf, -kInf), {}};
     for (const auto& [lo, hi] : boxes)
         for (int a = 0; a < 3; ++a) {
@@ -454,15 +454,17 @@ bool Scene::opaque_in_boxes(const std::vector<std::pair<Vec3, Vec3>>& boxes, dou
     RTCPointQueryContext ctx;
     rtcInitPointQueryContext(&ctx);
     rtcPointQuery(scene_, &pq, &ctx, gather_near_triangle, &q);
-    if (q.overflow) return true;
+    if (q.overflow) return 0;
     const bool plane = plane_n.x != 0.0 || plane_n.y != 0.0 || plane_n.z != 0.0;
+    size_t first = boxes.size();
     for (const auto& t : q.tris) {
         if (plane && dot(plane_n, t[0] - plane_p) <= plane_tol && dot(plane_n, t[1] - plane_p) <= plane_tol &&
             dot(plane_n, t[2] - plane_p) <= plane_tol)
             continue;  // on or behind the excluded plane
         const Vec3 nt = cross(t[1] - t[0], t[2] - t[0]);
         const double ntl = length(nt);
-        for (const auto& [lo, hi] : boxes) {
+        for (size_t k = 0; k < first; ++k) {
+            const auto& [lo, hi] = boxes[k];
             bool apart = false;
             for (int a = 0; a < 3 && !apart; ++a)
                 apart = std::min({t[0][a], t[1][a], t[2][a]}) > hi[a] + tol ||
@@ -471,10 +473,14 @@ bool Scene::opaque_in_boxes(const std::vector<std::pair<Vec3, Vec3>>& boxes, dou
             // The triangle's plane must pass through the box (grown by tol).
             const Vec3 bc = (lo + hi) * 0.5, he = (hi - lo) * 0.5;
             const double reach = std::fabs(nt.x) * he.x + std::fabs(nt.y) * he.y + std::fabs(nt.z) * he.z;
-            if (std::fabs(dot(nt, bc - t[0])) <= reach + tol * ntl) return true;
+            if (std::fabs(dot(nt, bc - t[0])) <= reach + tol * ntl) {
+                first = k;
+                break;
+            }
         }
+        if (first == 0) break;
     }
-    return false;
+    return first < boxes.size() ? int(first) : -1;
 }
 
 void Scene::set_prism_checks(BeamPrism* P, bool uniform, bool ends_on_surface) const {
@@ -495,6 +501,7 @@ void Scene::set_prism_checks(BeamPrism* P, bool uniform, bool ends_on_surface) c
     const std::pair<Vec3, Vec3> empty{Vec3(kInf, kInf, kInf), Vec3(-kInf, -kInf, -kInf)};
     std::vector<std::pair<Vec3, Vec3>> boxes;
     P->check_path = true;
+    P->path_clear_below = -kInf;
     if (uniform) {
         // The region the first shadow ray can cross: the segments from the query point back
         // to the source point with the same barycentric coordinates. Those points are
@@ -529,7 +536,11 @@ void Scene::set_prism_checks(BeamPrism* P, bool uniform, bool ends_on_surface) c
                 pn = Vec3();
             }
         }
-        P->check_path = opaque_in_boxes(boxes, tol, pn, pp, 2.0 * off);
+        // Slab k covers the shadow rays' parts at heights in [h0 + (h1 - h0) k / n, ... (k + 1) / n]:
+        // a query below the first slab an object cuts needs no ray.
+        const int k = first_opaque_box(boxes, tol, pn, pp, 2.0 * off);
+        P->check_path = k >= 0;
+        P->path_clear_below = k > 0 ? h0 + (h1 - h0) * k / n : -kInf;
     }
     // The second shadow ray goes from the source point towards the sun: the column above the
     // source triangle, as far as it is inside the meshes' bounds.
@@ -557,7 +568,7 @@ void Scene::set_prism_checks(BeamPrism* P, bool uniform, bool ends_on_surface) c
             for (double t : {t_top * k / m, t_top * (k + 1) / m}) grow(b, P->v[j] + beam_sun_dir * t);
         boxes.push_back(b);
     }
-    P->check_sun = opaque_in_boxes(boxes, tol, Vec3(), Vec3(), 0.0);
+    P->check_sun = first_opaque_box(boxes, tol, Vec3(), Vec3(), 0.0) >= 0;
 }
 
 void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys_out, BeamGrid* grid_out) {
@@ -731,11 +742,12 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
                        bool exact) const {
     // The slice through y: its corners p_j on the vertex rays (at t_j), its area S along m
     // and y's barycentric coordinates l_j in it.
-    double t[3], S, l0, l1;
+    double t[3], S, l0, l1, h;
     if (P.m.x == 0.0 && P.m.y == 0.0) {
         // Horizontal slices (most prisms): only the z components of the products along m are
         // nonzero; the same operations as the general case's on them, so the same results.
-        const double mz = P.m.z, h = mz * y.z;
+        const double mz = P.m.z;
+        h = mz * y.z;
         double px[3], py[3];
         for (int j = 0; j < 3; ++j) {
             t[j] = (h - P.mv[j]) / P.md[j];
@@ -748,7 +760,7 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
         l0 = 0.5 * (cross_z(px[1] - y.x, py[1] - y.y, px[2] - y.x, py[2] - y.y) * mz) / S;
         l1 = 0.5 * (cross_z(px[2] - y.x, py[2] - y.y, px[0] - y.x, py[0] - y.y) * mz) / S;
     } else {
-        const double h = dot(P.m, y);
+        h = dot(P.m, y);
         Vec3 p[3];
         for (int j = 0; j < 3; ++j) {
             t[j] = (h - P.mv[j]) / P.md[j];
@@ -787,7 +799,7 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
         const Vec3 to_e = e - world;
         const double dist = length(to_e);
         const double off = std::max(offset_for(world), offset_for(e));
-        if (P.check_path && dist > 0.0) {
+        if (P.check_path && dist > 0.0 && !(h < P.path_clear_below)) {
             const Vec3 u = to_e * (1.0 / dist);
             // Periodic prisms: only the meshes can block (the surface and bottom repeat with
             // the prism). A water mesh's prism: everything but its own source face.

@@ -105,6 +105,9 @@ struct alignas(64) BeamPrism {
     // Shadow rays of each query: an object may cut the prism between its source and the query
     // point (check_path), or shade its source from the sun (check_sun).
     bool check_path = false, check_sun = false;
+    // Queries at heights h = m . y below this need no path ray (set_prism_checks found no
+    // object near the part of the prism above it).
+    double path_clear_below = -kInf;
     // Below the periodic ocean patch: traced without the scene's meshes (each query shifts the
     // prism into the period it asks about, where other objects stand), so they are met by the
     // shadow rays at query time instead.
@@ -381,11 +384,11 @@ private:
                const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const;
     // The bounds of meshes, radiometers and the ocean (not cameras): where reflected beams end.
     Vec3 bounds_lo_{-1, -1, -1}, bounds_hi_{1, 1, 1};
-    // Whether an opaque triangle may lie in the union of boxes [lo_i, hi_i] (grown by tol),
+    // The first of the boxes [lo_i, hi_i] (grown by tol) in which an opaque triangle may lie,
     // other than those entirely on or behind the plane through plane_p with normal plane_n
-    // (pointing into the region; plane_n = 0: none excluded). Conservative: true when more
-    // triangles are near than it examines.
-    bool opaque_in_boxes(const std::vector<std::pair<Vec3, Vec3>>& boxes, double tol, const Vec3& plane_n,
+    // (pointing into the region; plane_n = 0: none excluded), or -1: none. Conservative: 0
+    // when more triangles are near than it examines.
+    int first_opaque_box(const std::vector<std::pair<Vec3, Vec3>>& boxes, double tol, const Vec3& plane_n,
                          const Vec3& plane_p, double plane_tol) const;
     // A water mesh's prism: its shadow-ray flags from the opaque triangles near its source's
     // sun column and, for one whose rays end on one plane (uniform: ends_on_surface) or in
