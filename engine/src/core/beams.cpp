@@ -921,17 +921,6 @@ inline bool may_cover(const Key& K, const Vec3& y, int medium, bool shifted) {
 
 }  // namespace
 
-void Scene::prefetch_beams(const Vec3& x, int medium) const {
-    const BeamGrid& grid = medium < 0 ? air_grid_ : grid_;
-    if (grid.nx == 0) return;
-    // (a hint: the cell by multiplications, which may differ from lookup's at a cell's edge)
-    const double fx = (x.x + grid.sx * x.z - grid.lo.x) * grid.inv_cell.x;
-    const double fy = (x.y + grid.sy * x.z - grid.lo.y) * grid.inv_cell.y;
-    const double fz = (x.z - grid.lo.z) * grid.inv_cell.z;
-    if (!(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < grid.nx && fy < grid.ny && fz < grid.nz)) return;
-    __builtin_prefetch(&grid.cells[((size_t(fz) * grid.ny + size_t(fy)) * grid.nx + size_t(fx)) * BeamGrid::kCellWords]);
-}
-
 int Scene::lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
                   const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const {
     if (grid.nx == 0) return n;

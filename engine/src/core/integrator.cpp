@@ -34,14 +34,19 @@ double max_component(const Spectrum& s, int nb) {
 
 void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int medium, Rng& rng,
                                Spectrum* out, double* deferred_t) const {
+    *out = Spectrum();
+    double t, pdf;
+    if (beam_scatter_point(waters[medium], d, T, rng, &t, &pdf)) beam_scatter_at(o, d, t, pdf, medium, out, deferred_t);
+}
+
+bool Scene::beam_scatter_point(const Water& w, const Vec3& d, double T, Rng& rng, double* t_out,
+                               double* pdf_out) const {
     // Single scattering of the beams along the water segment [0, T] from o along d, as seen
     // from o: int exp(-c t) sum_beams b p(psi) E dt, estimated with one distance drawn with
     // pdf proportional to exp(-k t), where k follows the integrand: attenuation back to o (c)
     // and the beams growing towards the surface (c_beam per metre of beam path, which changes
     // by -d_z / mu_w per metre along the segment).
-    const Water& w = waters[medium];
-    *out = Spectrum();
-    if (!(w.c_path_mean > 0.0) || !(T > 0.0)) return;
+    if (!(w.c_path_mean > 0.0) || !(T > 0.0)) return false;
     double k = w.c_path_mean * (1.0 - d.z / beam_mu_w);
     bool finite = T < kInf;
     if (!finite && k < 0.5 * w.c_path_mean) k = 0.5 * w.c_path_mean;
@@ -57,6 +62,15 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
         t = k > 0 ? s_ : T - s_;
         pdf = ak * std::exp(-ak * s_) / norm;
     }
+    *t_out = t;
+    *pdf_out = pdf;
+    return true;
+}
+
+void Scene::beam_scatter_at(const Vec3& o, const Vec3& d, double t, double pdf, int medium, Spectrum* out,
+                            double* deferred_t) const {
+    const Water& w = waters[medium];
+    *out = Spectrum();
     thread_local BeamSample beams[kMaxBeams];  // per thread: zeroing 64 spectra per call costs
     const Vec3 x = o + d * t;
     int n = beams_at(x, medium, beams, kMaxBeams);
@@ -126,8 +140,33 @@ Vec3 Scene::sample_beam_direction(const Water& w, const Vec3& beam_d, Rng& rng) 
     return phases[w.components[pick].phase].sample_direction(-beam_d, u1, u2);
 }
 
+void Scene::settle_beam_terms(BeamTerms& b, Spectrum* volume) const {
+    // All the points' grid cells, then all their candidates' keys, fetched ahead; then each
+    // term looked up and added in order.
+    auto point = [&](const BeamTerms::Term& e) { return BeamTerms::vec(e.o) + BeamTerms::vec(e.d) * e.t; };
+    for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), b.terms[i].medium, 0);
+    for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), b.terms[i].medium, 1);
+    for (int i = 0; i < b.n; ++i) {
+        const BeamTerms::Term& e = b.terms[i];
+        Spectrum I;
+        beam_scatter_at(BeamTerms::vec(e.o), BeamTerms::vec(e.d), e.t, e.pdf, e.medium, &I, nullptr);
+        for (int k = 0; k < nbands; ++k) volume->v[k] += e.weight[k] * I.v[k] / e.den;
+    }
+    b.n = 0;
+}
+
 Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
                         Counters& c, double first_beam_weight, bool camera, bool reflect_covered) const {
+    BeamTerms terms;
+    Components out = trace_path(o, d, medium, sun_covered, beam_covered, rng, c, first_beam_weight, camera,
+                                reflect_covered, terms);
+    settle_beam_terms(terms, &out.beam_volume);
+    return out;
+}
+
+Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
+                             Counters& c, double first_beam_weight, bool camera, bool reflect_covered,
+                             BeamTerms& terms) const {
     const int nb = nbands;
     Components out;
     Spectrum beta = Spectrum::constant(1.0);
@@ -174,10 +213,22 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
             if (hybrid && h.valid && h.kind == SurfaceKind::kOpaque) prefetch_beams(o + d * t_hit, medium);
 
             if (hybrid && has_beams()) {
-                Spectrum I, contribution;
-                beam_scatter_along(o, d, t_hit, medium, rng, &I, walk.beam_point());
-                for (int kb = 0; kb < nb; ++kb) contribution.v[kb] = bv_weight * beta.v[kb] * walk.absorbed(w, kb) * I.v[kb];
-                walk.add_beam(contribution, &out.beam_volume);
+                double tb, pdf;
+                if (!walk.beam_point()) {  // (no point drawn: the term is 0)
+                    if (beam_scatter_point(w, d, t_hit, rng, &tb, &pdf)) {
+                        BeamTerms::Term& e = add_beam_term(terms, &out.beam_volume);
+                        BeamTerms::set(e.o, o);
+                        BeamTerms::set(e.d, d);
+                        e.t = tb; e.pdf = pdf; e.den = 1.0; e.medium = medium;
+                        for (int kb = 0; kb < nb; ++kb) e.weight[kb] = bv_weight * beta.v[kb] * walk.absorbed(w, kb);
+                    }
+                } else {  // gridded water: the walk attenuates it, added when the walk passes it
+                    settle_beam_terms(terms, &out.beam_volume);
+                    Spectrum I, contribution;
+                    beam_scatter_along(o, d, t_hit, medium, rng, &I, walk.beam_point());
+                    for (int kb = 0; kb < nb; ++kb) contribution.v[kb] = bv_weight * beta.v[kb] * walk.absorbed(w, kb) * I.v[kb];
+                    walk.add_beam(contribution, &out.beam_volume);
+                }
             }
             bv_weight = 1.0;
             double dt = walk.first_flight(rng, t_hit, clipped, intersect_rest);
@@ -314,11 +365,15 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     if (pa_b > 0.0) {
                         Hit hb = intersect(o, wb);
                         c.segments++;
-                        Spectrum I;
-                        beam_scatter_along(o, wb, hb.valid ? hb.t : kInf, medium, rng, &I);
-                        const double den = mixture(pa_b, pb_b) + qb * pb_b;
-                        for (int k = 0; k < nb; ++k)
-                            out.beam_volume.v[k] += beta_pre[k] * band_phase(k) * walk.absorbed(w, k) * I.v[k] / den;
+                        double tb, pdf;
+                        if (beam_scatter_point(w, wb, hb.valid ? hb.t : kInf, rng, &tb, &pdf)) {
+                            BeamTerms::Term& e = add_beam_term(terms, &out.beam_volume);
+                            BeamTerms::set(e.o, o);
+                            BeamTerms::set(e.d, wb);
+                            e.t = tb; e.pdf = pdf; e.medium = medium;
+                            e.den = mixture(pa_b, pb_b) + qb * pb_b;
+                            for (int k = 0; k < nb; ++k) e.weight[k] = beta_pre[k] * band_phase(k) * walk.absorbed(w, k);
+                        }
                     }
                 }
                 d = nd;
@@ -433,11 +488,15 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
                     double pa_b = cb * kInvPi, pb_b = beam_direction_pdf(w, bd, wb);
                     Hit hb = intersect(xo, wb);
                     c.segments++;
-                    Spectrum I;
-                    beam_scatter_along(xo, wb, hb.valid ? hb.t : kInf, medium, rng, &I);
-                    const double den = mixture(pa_b, pb_b) + q * pb_b;
-                    for (int k = 0; k < nb; ++k)
-                        out.beam_volume.v[k] += beta.v[k] * m.reflectance.v[k] * cb * kInvPi * I.v[k] / den;
+                    double tb, pdf;
+                    if (beam_scatter_point(w, wb, hb.valid ? hb.t : kInf, rng, &tb, &pdf)) {
+                        BeamTerms::Term& e = add_beam_term(terms, &out.beam_volume);
+                        BeamTerms::set(e.o, xo);
+                        BeamTerms::set(e.d, wb);
+                        e.t = tb; e.pdf = pdf; e.medium = medium;
+                        e.den = mixture(pa_b, pb_b) + q * pb_b;
+                        for (int k = 0; k < nb; ++k) e.weight[k] = beta.v[k] * m.reflectance.v[k] * cb * kInvPi;
+                    }
                 }
             }
             if (!(dot(nd, n) > 0.0)) return out;  // a guided direction into the surface
