@@ -208,10 +208,6 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
             clipped = short_ray && !h.valid;  // nothing before t_cast; what lies beyond is unknown
             c.segments++;
             t_hit = h.valid ? h.t : kInf;
-            // The beams on the surface met are looked up after those along the segment: their
-            // grid cell is fetched meanwhile.
-            if (hybrid && h.valid && h.kind == SurfaceKind::kOpaque) prefetch_beams(o + d * t_hit, medium);
-
             if (hybrid && has_beams()) {
                 double tb, pdf;
                 if (!walk.beam_point()) {  // (no point drawn: the term is 0)
