@@ -140,16 +140,30 @@ Vec3 Scene::sample_beam_direction(const Water& w, const Vec3& beam_d, Rng& rng) 
     return phases[w.components[pick].phase].sample_direction(-beam_d, u1, u2);
 }
 
+double* Scene::queue_beam_term(BeamTerms& b, Spectrum* volume, const Vec3& o, const Vec3& d, double t, double pdf,
+                               int medium, double den) const {
+    if (b.n == BeamTerms::kMax) settle_beam_terms(b, volume);
+    BeamTerms::Term& e = b.terms[b.n++];
+    e.o[0] = o.x; e.o[1] = o.y; e.o[2] = o.z;
+    e.d[0] = d.x; e.d[1] = d.y; e.d[2] = d.z;
+    e.t = t;
+    e.pdf = pdf;
+    e.den = den;
+    e.medium = medium;
+    return e.weight;
+}
+
 void Scene::settle_beam_terms(BeamTerms& b, Spectrum* volume) const {
     // All the points' grid cells, then all their candidates' keys, fetched ahead; then each
     // term looked up and added in order.
-    auto point = [&](const BeamTerms::Term& e) { return BeamTerms::vec(e.o) + BeamTerms::vec(e.d) * e.t; };
+    auto vec = [](const double* v) { return Vec3(v[0], v[1], v[2]); };
+    auto point = [&](const BeamTerms::Term& e) { return vec(e.o) + vec(e.d) * e.t; };
     for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), b.terms[i].medium, 0);
     for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), b.terms[i].medium, 1);
     for (int i = 0; i < b.n; ++i) {
         const BeamTerms::Term& e = b.terms[i];
         Spectrum I;
-        beam_scatter_at(BeamTerms::vec(e.o), BeamTerms::vec(e.d), e.t, e.pdf, e.medium, &I, nullptr);
+        beam_scatter_at(vec(e.o), vec(e.d), e.t, e.pdf, e.medium, &I, nullptr);
         for (int k = 0; k < nbands; ++k) volume->v[k] += e.weight[k] * I.v[k] / e.den;
     }
     b.n = 0;
@@ -212,11 +226,8 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 double tb, pdf;
                 if (!walk.beam_point()) {  // (no point drawn: the term is 0)
                     if (beam_scatter_point(w, d, t_hit, rng, &tb, &pdf)) {
-                        BeamTerms::Term& e = add_beam_term(terms, &out.beam_volume);
-                        BeamTerms::set(e.o, o);
-                        BeamTerms::set(e.d, d);
-                        e.t = tb; e.pdf = pdf; e.den = 1.0; e.medium = medium;
-                        for (int kb = 0; kb < nb; ++kb) e.weight[kb] = bv_weight * beta.v[kb] * walk.absorbed(w, kb);
+                        double* weight = queue_beam_term(terms, &out.beam_volume, o, d, tb, pdf, medium, 1.0);
+                        for (int kb = 0; kb < nb; ++kb) weight[kb] = bv_weight * beta.v[kb] * walk.absorbed(w, kb);
                     }
                 } else {  // gridded water: the walk attenuates it, added when the walk passes it
                     settle_beam_terms(terms, &out.beam_volume);
@@ -363,12 +374,9 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                         c.segments++;
                         double tb, pdf;
                         if (beam_scatter_point(w, wb, hb.valid ? hb.t : kInf, rng, &tb, &pdf)) {
-                            BeamTerms::Term& e = add_beam_term(terms, &out.beam_volume);
-                            BeamTerms::set(e.o, o);
-                            BeamTerms::set(e.d, wb);
-                            e.t = tb; e.pdf = pdf; e.medium = medium;
-                            e.den = mixture(pa_b, pb_b) + qb * pb_b;
-                            for (int k = 0; k < nb; ++k) e.weight[k] = beta_pre[k] * band_phase(k) * walk.absorbed(w, k);
+                            double* weight = queue_beam_term(terms, &out.beam_volume, o, wb, tb, pdf, medium,
+                                                             mixture(pa_b, pb_b) + qb * pb_b);
+                            for (int k = 0; k < nb; ++k) weight[k] = beta_pre[k] * band_phase(k) * walk.absorbed(w, k);
                         }
                     }
                 }
@@ -486,12 +494,9 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                     c.segments++;
                     double tb, pdf;
                     if (beam_scatter_point(w, wb, hb.valid ? hb.t : kInf, rng, &tb, &pdf)) {
-                        BeamTerms::Term& e = add_beam_term(terms, &out.beam_volume);
-                        BeamTerms::set(e.o, xo);
-                        BeamTerms::set(e.d, wb);
-                        e.t = tb; e.pdf = pdf; e.medium = medium;
-                        e.den = mixture(pa_b, pb_b) + q * pb_b;
-                        for (int k = 0; k < nb; ++k) e.weight[k] = beta.v[k] * m.reflectance.v[k] * cb * kInvPi;
+                        double* weight = queue_beam_term(terms, &out.beam_volume, xo, wb, tb, pdf, medium,
+                                                         mixture(pa_b, pb_b) + q * pb_b);
+                        for (int k = 0; k < nb; ++k) weight[k] = beta.v[k] * m.reflectance.v[k] * cb * kInvPi;
                     }
                 }
             }

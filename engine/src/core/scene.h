@@ -320,13 +320,10 @@ public:
         };
         int n = 0;
         Term terms[kMax];
-        static Vec3 vec(const double* v) { return Vec3(v[0], v[1], v[2]); }
-        static void set(double* v, const Vec3& a) { v[0] = a.x; v[1] = a.y; v[2] = a.z; }
     };
-    BeamTerms::Term& add_beam_term(BeamTerms& b, Spectrum* volume) const {  // (settles a full list)
-        if (b.n == BeamTerms::kMax) settle_beam_terms(b, volume);
-        return b.terms[b.n++];
-    }
+    // Queues a term (settling a full list first); returns its weight, for the caller to fill.
+    double* queue_beam_term(BeamTerms& b, Spectrum* volume, const Vec3& o, const Vec3& d, double t, double pdf,
+                            int medium, double den) const;
     void settle_beam_terms(BeamTerms& b, Spectrum* volume) const;
     // trace's body (trace settles the path's beam terms when it returns).
     Components trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
