@@ -227,31 +227,6 @@ public:
     // the top or base layer's coefficients only (no walk through the layers or voxels): enough
     // to rank the beams, as strongest_beam does.
     int beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool exact = true) const;
-    // Starts fetching the beam grid's cell at x (a hint: a later beams_at there then finds it
-    // in the cache; the cell by multiplications, which may differ from lookup's at a cell's
-    // edge; for a periodic patch, x's own period only). stage 1: reads that cell and fetches
-    // its candidates' keys (after stage 0 for many points in turn, so that their misses
-    // overlap). Always inlined: GCC's link-time optimisation takes an out-of-line function
-    // that only reads memory and prefetches for one without effects, and drops its calls.
-    __attribute__((always_inline)) void prefetch_beams(const Vec3& x, int medium, int stage = 0) const {
-        const BeamGrid& grid = medium < 0 ? air_grid_ : grid_;
-        if (grid.nx == 0) return;
-        const double fx = (x.x + grid.sx * x.z - grid.lo.x) * grid.inv_cell.x;
-        const double fy = (x.y + grid.sy * x.z - grid.lo.y) * grid.inv_cell.y;
-        const double fz = (x.z - grid.lo.z) * grid.inv_cell.z;
-        if (!(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < grid.nx && fy < grid.ny && fz < grid.nz)) return;
-        const uint32_t* rec =
-            &grid.cells[((size_t(fz) * grid.ny + size_t(fy)) * grid.nx + size_t(fx)) * BeamGrid::kCellWords];
-        if (stage == 0) {
-            __builtin_prefetch(rec);
-            return;
-        }
-        const HugeVector<PrismKey>& keys = medium < 0 ? air_keys_ : prism_keys_;
-        const uint32_t count = rec[0], first = rec[1];
-        const uint32_t in_record = std::min<uint32_t>(count, BeamGrid::kInline);
-        for (uint32_t q = 0; q < in_record; ++q) prefetch_key(keys[rec[2 + q]]);
-        for (uint32_t q = BeamGrid::kInline; q < count; ++q) prefetch_key(keys[grid.items[first + q]]);
-    }
     double beam_total_flux() const;   // sum of prism fluxes entering the water (band 0)
     double air_beam_total_flux() const;   // sum of the reflected prisms' fluxes (band 0)
 
@@ -299,36 +274,6 @@ public:
     // that point's distance stored here, for a caller who walks the segment anyway.
     void beam_scatter_along(const Vec3& o, const Vec3& d, double T, int medium, Rng& rng, Spectrum* out,
                             double* deferred_t = nullptr) const;
-    // Its two halves: the distance t drawn (with its pdf; false: no point, the term is 0), and
-    // the beams at x = o + d t summed.
-    bool beam_scatter_point(const Water& w, const Vec3& d, double T, Rng& rng, double* t, double* pdf) const;
-    void beam_scatter_at(const Vec3& o, const Vec3& d, double t, double pdf, int medium, Spectrum* out,
-                         double* deferred_t) const;
-    // A path's beam-scattering terms (along its water segments and its MIS rays) whose points
-    // are drawn in turn but whose beams are looked up together when the path ends: all their
-    // grid cells are fetched, then all their candidates' keys, so that the misses of a path's
-    // lookups overlap instead of queueing. Each term is weight * I / den (the factors and
-    // their order as when each was added at once), added to beam_volume in the order drawn,
-    // before anything else adds to it: the same sums, bit for bit.
-    struct BeamTerms {
-        static constexpr int kMax = 24;
-        struct Term {  // (plain arrays: a path's list is not cleared when made)
-            double o[3], d[3];
-            double t, pdf, den;
-            int medium;
-            double weight[kMaxBands];
-        };
-        int n = 0;
-        Term terms[kMax];
-    };
-    // Queues a term (settling a full list first); returns its weight, for the caller to fill.
-    double* queue_beam_term(BeamTerms& b, Spectrum* volume, const Vec3& o, const Vec3& d, double t, double pdf,
-                            int medium, double den) const;
-    void settle_beam_terms(BeamTerms& b, Spectrum* volume) const;
-    // trace's body (trace settles the path's beam terms when it returns).
-    Components trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
-                          Counters& c, double first_beam_weight, bool camera, bool reflect_covered,
-                          BeamTerms& terms) const;
     bool strongest_beam(const Vec3& x, int medium, BeamSample* beam) const;
     // How often a camera path at a point lit by `beam` tries the beam's reverse direction: the
     // probability of the beam-scattering MIS's second sample (and, times kBeamGuide, of a
@@ -389,6 +334,61 @@ public:
                     bool exact = true) const;
 
 private:
+    // beam_scatter_along's two halves: the distance t drawn (with its pdf; false: no point, the
+    // term is 0), and the beams at x = o + d t summed.
+    bool beam_scatter_point(const Water& w, const Vec3& d, double T, Rng& rng, double* t, double* pdf) const;
+    void beam_scatter_at(const Vec3& o, const Vec3& d, double t, double pdf, int medium, Spectrum* out,
+                         double* deferred_t) const;
+    // A path's beam-scattering terms (along its water segments and its MIS rays) whose points
+    // are drawn in turn but whose beams are looked up together when the path ends: all their
+    // grid cells are fetched, then all their candidates' keys, so that the misses of a path's
+    // lookups overlap instead of queueing. Each term is weight * I / den (the factors and
+    // their order as when each was added at once), added to beam_volume in the order drawn,
+    // before anything else adds to it: the same sums, bit for bit.
+    struct BeamTerms {
+        static constexpr int kMax = 24;
+        struct Term {  // (plain arrays: a path's list is not cleared when made)
+            double o[3], d[3];
+            double t, pdf, den;
+            int medium;
+            double weight[kMaxBands];
+        };
+        int n = 0;
+        Term terms[kMax];
+    };
+    // Queues a term (settling a full list first); returns its weight, for the caller to fill.
+    double* queue_beam_term(BeamTerms& b, Spectrum* volume, const Vec3& o, const Vec3& d, double t, double pdf,
+                            int medium, double den) const;
+    void settle_beam_terms(BeamTerms& b, Spectrum* volume) const;
+    // trace's body (trace settles the path's beam terms when it returns).
+    Components trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
+                          Counters& c, double first_beam_weight, bool camera, bool reflect_covered,
+                          BeamTerms& terms) const;
+    // Starts fetching the beam grid's cell at x (a hint: a later beams_at there then finds it
+    // in the cache; the cell by multiplications, which may differ from lookup's at a cell's
+    // edge; for a periodic patch, x's own period only). stage 1: reads that cell and fetches
+    // its candidates' keys (after stage 0 for many points in turn, so that their misses
+    // overlap). Always inlined: GCC's link-time optimisation takes an out-of-line function
+    // that only reads memory and prefetches for one without effects, and drops its calls.
+    __attribute__((always_inline)) void prefetch_beams(const Vec3& x, int medium, int stage = 0) const {
+        const BeamGrid& grid = medium < 0 ? air_grid_ : grid_;
+        if (grid.nx == 0) return;
+        const double fx = (x.x + grid.sx * x.z - grid.lo.x) * grid.inv_cell.x;
+        const double fy = (x.y + grid.sy * x.z - grid.lo.y) * grid.inv_cell.y;
+        const double fz = (x.z - grid.lo.z) * grid.inv_cell.z;
+        if (!(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < grid.nx && fy < grid.ny && fz < grid.nz)) return;
+        const uint32_t* rec =
+            &grid.cells[((size_t(fz) * grid.ny + size_t(fy)) * grid.nx + size_t(fx)) * BeamGrid::kCellWords];
+        if (stage == 0) {
+            __builtin_prefetch(rec);
+            return;
+        }
+        const HugeVector<PrismKey>& keys = medium < 0 ? air_keys_ : prism_keys_;
+        const uint32_t count = rec[0], first = rec[1];
+        const uint32_t in_record = std::min<uint32_t>(count, BeamGrid::kInline);
+        for (uint32_t q = 0; q < in_record; ++q) prefetch_key(keys[rec[2 + q]]);
+        for (uint32_t q = BeamGrid::kInline; q < count; ++q) prefetch_key(keys[grid.items[first + q]]);
+    }
     struct BeamGrid {  // uniform grid over prism pieces (primary patch frame, sheared)
         double sx = 0.0, sy = 0.0;  // cell (i, j, k) holds u = x + sx z, v = y + sy z, z
         Vec3 lo, cell, inv_cell;
@@ -421,7 +421,7 @@ private:
         bool up;
         bool periodic;    // below (or above) the periodic ocean patch: looked up in every period
     };
-    static void prefetch_key(const PrismKey& K) {
+    __attribute__((always_inline)) static void prefetch_key(const PrismKey& K) {  // (inline: see prefetch_beams)
         const char* p = reinterpret_cast<const char*>(&K);
         __builtin_prefetch(p);
         __builtin_prefetch(p + 64);
