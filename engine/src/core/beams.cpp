@@ -948,7 +948,7 @@ int Scene::lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey
             const uint32_t* rec = &grid.cells[c * BeamGrid::kCellWords];
             const uint32_t count = rec[0], first = rec[1];
             auto item = [&](uint32_t q) { return q < uint32_t(BeamGrid::kInline) ? rec[2 + q] : grid.items[first + q]; };
-            for (uint32_t q = 0; q < count; ++q) prefetch_key(keys[item(q)]);
+            prefetch_cell_keys(grid, rec, keys);
             uint32_t k = 0;
             while (k < count) {
                 uint32_t pass[kMaxBeams];

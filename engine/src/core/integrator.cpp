@@ -223,8 +223,8 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
             c.segments++;
             t_hit = h.valid ? h.t : kInf;
             if (hybrid && has_beams()) {
-                double tb, pdf;
                 if (!walk.beam_point()) {  // (no point drawn: the term is 0)
+                    double tb, pdf;
                     if (beam_scatter_point(w, d, t_hit, rng, &tb, &pdf)) {
                         double* weight = queue_beam_term(terms, &out.beam_volume, o, d, tb, pdf, medium, 1.0);
                         for (int kb = 0; kb < nb; ++kb) weight[kb] = bv_weight * beta.v[kb] * walk.absorbed(w, kb);

@@ -383,11 +383,7 @@ private:
             __builtin_prefetch(rec);
             return;
         }
-        const HugeVector<PrismKey>& keys = medium < 0 ? air_keys_ : prism_keys_;
-        const uint32_t count = rec[0], first = rec[1];
-        const uint32_t in_record = std::min<uint32_t>(count, BeamGrid::kInline);
-        for (uint32_t q = 0; q < in_record; ++q) prefetch_key(keys[rec[2 + q]]);
-        for (uint32_t q = BeamGrid::kInline; q < count; ++q) prefetch_key(keys[grid.items[first + q]]);
+        prefetch_cell_keys(grid, rec, medium < 0 ? air_keys_ : prism_keys_);
     }
     struct BeamGrid {  // uniform grid over prism pieces (primary patch frame, sheared)
         double sx = 0.0, sy = 0.0;  // cell (i, j, k) holds u = x + sx z, v = y + sy z, z
@@ -412,7 +408,7 @@ private:
     // its water body and, for prisms sliced horizontally, the corners of the slice at height
     // h = -z as x = ax + bx h, y = ay + by h, for a point-in-triangle test that rejects most
     // candidates before prism_eval (conservatively: it accepts whatever prism_eval would).
-    // Two whole cache lines (104 bytes used), both fetched ahead by prefetch_key: a key
+    // Two whole cache lines (104 bytes used), both fetched ahead by prefetch_cell_keys: a key
     // straddling three lines, of which the first alone was fetched, cost a second miss.
     struct alignas(128) PrismKey {
         double ax[3], bx[3], ay[3], by[3];
@@ -421,10 +417,21 @@ private:
         bool up;
         bool periodic;    // below (or above) the periodic ocean patch: looked up in every period
     };
-    __attribute__((always_inline)) static void prefetch_key(const PrismKey& K) {  // (inline: see prefetch_beams)
-        const char* p = reinterpret_cast<const char*>(&K);
-        __builtin_prefetch(p);
-        __builtin_prefetch(p + 64);
+    // Fetches the keys of the candidates of the cell whose record is rec (inline: see
+    // prefetch_beams; two loops, as a select between the record and the item list would load
+    // both, and the list is a miss of its own for the many cells whose items all fit in the
+    // record).
+    __attribute__((always_inline)) static void prefetch_cell_keys(const BeamGrid& grid, const uint32_t* rec,
+                                                                  const HugeVector<PrismKey>& keys) {
+        auto fetch = [&](uint32_t pi) {
+            const char* p = reinterpret_cast<const char*>(&keys[pi]);
+            __builtin_prefetch(p);
+            __builtin_prefetch(p + 64);
+        };
+        const uint32_t count = rec[0], first = rec[1];
+        const uint32_t in_record = std::min<uint32_t>(count, BeamGrid::kInline);
+        for (uint32_t q = 0; q < in_record; ++q) fetch(rec[2 + q]);
+        for (uint32_t q = BeamGrid::kInline; q < count; ++q) fetch(grid.items[first + q]);
     }
     HugeVector<PrismKey> prism_keys_;
     std::vector<std::vector<BeamPrism>> prism_lists_;  // build_beams' per-triangle lists (kept)
