@@ -831,8 +831,14 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
 }
 
 int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool exact) const {
-    int n = 0;
     if (max <= 0) return 0;
+    const int n = flat_beams_at(x, medium, out, max, exact);
+    if (medium < 0) return lookup(air_prisms, air_keys_, air_grid_, x, -1, out, n, max, exact);
+    return lookup(prisms, prism_keys_, grid_, x, medium, out, n, max, exact);
+}
+
+int Scene::flat_beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool exact) const {
+    int n = 0;
     if (medium < 0) {  // the reflected sun in the air
         if (flat_air_beam && x.z > ocean_z) {
             const double l = (x.z - ocean_z) / flat_air_d.z;
@@ -849,7 +855,7 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool ex
                 ++n;
             }
         }
-        return lookup(air_prisms, air_keys_, air_grid_, x, -1, out, n, max, exact);
+        return n;
     }
     if (flat_beam && medium == ocean_water && x.z < ocean_z && (!has_bottom || x.z > bottom_z)) {
         const Water& w = waters[medium];
@@ -888,7 +894,7 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool ex
             }
         }
     }
-    return lookup(prisms, prism_keys_, grid_, x, medium, out, n, max, exact);
+    return n;
 }
 
 namespace {
@@ -923,7 +929,16 @@ inline bool may_cover(const Key& K, const Vec3& y, int medium, bool shifted) {
 
 int Scene::lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
                   const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const {
-    if (grid.nx == 0) return n;
+    thread_local std::vector<BeamCandidate> found;  // per thread: kept, so rarely grown
+    found.clear();
+    find_candidates(prisms, keys, grid, x, medium, &found);
+    return eval_candidates(prisms, found.data(), found.size(), x, out, n, max, exact);
+}
+
+void Scene::find_candidates(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys,
+                            const BeamGrid& grid, const Vec3& x, int medium,
+                            std::vector<BeamCandidate>* found) const {
+    if (grid.nx == 0) return;
     // Below (or above) the periodic patch the beams of every period meet at x.
     bool periodic = ocean_water >= 0 && !ocean_flat && (medium == ocean_water || medium < 0);
     long i0 = 0, i1 = 0, j0 = 0, j1 = 0;
@@ -942,30 +957,29 @@ int Scene::lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey
             int cz = int(std::floor((y.z - grid.lo.z) / grid.cell.z));
             if (cx < 0 || cy < 0 || cz < 0 || cx >= grid.nx || cy >= grid.ny || cz >= grid.nz) continue;
             size_t c = (size_t(cz) * grid.ny + cy) * grid.nx + cx;
-            // In rounds, so that the misses of a cell's candidates overlap (independent loads
-            // into arrays of megabytes): the keys are all fetched at once and tested, then the
-            // prisms that passed are fetched at once and evaluated, in prism order.
+            // The keys all fetched at once and tested (independent loads into arrays of
+            // megabytes, so their misses overlap), and the prisms that passed fetched at once.
             const uint32_t* rec = &grid.cells[c * BeamGrid::kCellWords];
             const uint32_t count = rec[0], first = rec[1];
             auto item = [&](uint32_t q) { return q < uint32_t(BeamGrid::kInline) ? rec[2 + q] : grid.items[first + q]; };
             prefetch_cell_keys(grid, rec, keys);
-            uint32_t k = 0;
-            while (k < count) {
-                uint32_t pass[kMaxBeams];
-                int npass = 0;
-                for (; k < count && npass < kMaxBeams; ++k) {
-                    const uint32_t pi = item(k);
-                    if (!may_cover(keys[pi], y, medium, i != 0 || j != 0)) continue;
-                    const char* pp = reinterpret_cast<const char*>(&prisms[pi]);
-                    for (int line = 0; line < kPrismQueryLines; ++line) __builtin_prefetch(pp + 64 * line);
-                    pass[npass++] = pi;
-                }
-                for (int q = 0; q < npass; ++q) {
-                    if (n >= max) return n;
-                    if (prism_eval(prisms[pass[q]], y, x, &out[n], exact)) ++n;
-                }
+            for (uint32_t k = 0; k < count; ++k) {
+                const uint32_t pi = item(k);
+                if (!may_cover(keys[pi], y, medium, i != 0 || j != 0)) continue;
+                const char* pp = reinterpret_cast<const char*>(&prisms[pi]);
+                for (int line = 0; line < kPrismQueryLines; ++line) __builtin_prefetch(pp + 64 * line);
+                found->push_back({pi, int32_t(i), int32_t(j)});
             }
         }
+}
+
+int Scene::eval_candidates(const HugeVector<BeamPrism>& prisms, const BeamCandidate* found, size_t count,
+                           const Vec3& x, BeamSample* out, int n, int max, bool exact) const {
+    for (size_t q = 0; q < count && n < max; ++q) {
+        const BeamCandidate& f = found[q];
+        const Vec3 y = x - Vec3(double(f.i) * patch_lx, double(f.j) * patch_ly, 0.0);
+        if (prism_eval(prisms[f.prism], y, x, &out[n], exact)) ++n;
+    }
     return n;
 }
 

@@ -69,12 +69,17 @@ bool Scene::beam_scatter_point(const Water& w, const Vec3& d, double T, Rng& rng
 
 void Scene::beam_scatter_at(const Vec3& o, const Vec3& d, double t, double pdf, int medium, Spectrum* out,
                             double* deferred_t) const {
+    thread_local BeamSample beams[kMaxBeams];  // per thread: zeroing 64 spectra per call costs
+    const int n = beams_at(o + d * t, medium, beams, kMaxBeams);
+    beam_scatter_sum(o, d, t, pdf, medium, beams, n, out, deferred_t);
+}
+
+void Scene::beam_scatter_sum(const Vec3& o, const Vec3& d, double t, double pdf, int medium,
+                             const BeamSample* beams, int n, Spectrum* out, double* deferred_t) const {
     const Water& w = waters[medium];
     *out = Spectrum();
-    thread_local BeamSample beams[kMaxBeams];  // per thread: zeroing 64 spectra per call costs
-    const Vec3 x = o + d * t;
-    int n = beams_at(x, medium, beams, kMaxBeams);
     if (n == 0) return;
+    const Vec3 x = o + d * t;
     // The local scattering at x and the attenuation back to o (through the layers or voxels
     // crossed; gridded water: the caller's walk along the segment will tell).
     const Water::Point local = w.at(x);
@@ -154,16 +159,32 @@ double* Scene::queue_beam_term(BeamTerms& b, Spectrum* volume, const Vec3& o, co
 }
 
 void Scene::settle_beam_terms(BeamTerms& b, Spectrum* volume) const {
-    // All the points' grid cells, then all their candidates' keys, fetched ahead; then each
-    // term looked up and added in order.
+    // All the points' grid cells, then all their candidates' keys, fetched ahead; then all
+    // their candidates found (the prisms that pass fetched ahead); then each term's beams
+    // evaluated and added in order.
     auto vec = [](const double* v) { return Vec3(v[0], v[1], v[2]); };
     auto point = [&](const BeamTerms::Term& e) { return vec(e.o) + vec(e.d) * e.t; };
     for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), b.terms[i].medium, 0);
     for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), b.terms[i].medium, 1);
+    thread_local std::vector<BeamCandidate> found;  // per thread: kept, so rarely grown
+    found.clear();
+    size_t first[BeamTerms::kMax + 1];
     for (int i = 0; i < b.n; ++i) {
         const BeamTerms::Term& e = b.terms[i];
+        first[i] = found.size();
+        if (e.medium < 0) find_candidates(air_prisms, air_keys_, air_grid_, point(e), -1, &found);
+        else find_candidates(prisms, prism_keys_, grid_, point(e), e.medium, &found);
+    }
+    first[b.n] = found.size();
+    thread_local BeamSample beams[kMaxBeams];  // (as beam_scatter_at's)
+    for (int i = 0; i < b.n; ++i) {
+        const BeamTerms::Term& e = b.terms[i];
+        const Vec3 x = point(e);
+        int n = flat_beams_at(x, e.medium, beams, kMaxBeams, true);
+        n = eval_candidates(e.medium < 0 ? air_prisms : prisms, found.data() + first[i], first[i + 1] - first[i], x,
+                            beams, n, kMaxBeams, true);
         Spectrum I;
-        beam_scatter_at(vec(e.o), vec(e.d), e.t, e.pdf, e.medium, &I, nullptr);
+        beam_scatter_sum(vec(e.o), vec(e.d), e.t, e.pdf, e.medium, beams, n, &I, nullptr);
         for (int k = 0; k < nbands; ++k) volume->v[k] += e.weight[k] * I.v[k] / e.den;
     }
     b.n = 0;

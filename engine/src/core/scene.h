@@ -339,6 +339,9 @@ private:
     bool beam_scatter_point(const Water& w, const Vec3& d, double T, Rng& rng, double* t, double* pdf) const;
     void beam_scatter_at(const Vec3& o, const Vec3& d, double t, double pdf, int medium, Spectrum* out,
                          double* deferred_t) const;
+    // beam_scatter_at's sum over the beams found at x = o + d t.
+    void beam_scatter_sum(const Vec3& o, const Vec3& d, double t, double pdf, int medium, const BeamSample* beams,
+                          int n, Spectrum* out, double* deferred_t) const;
     // A path's beam-scattering terms (along its water segments and its MIS rays) whose points
     // are drawn in turn but whose beams are looked up together when the path ends: all their
     // grid cells are fetched, then all their candidates' keys, so that the misses of a path's
@@ -441,6 +444,20 @@ private:
     // The prisms of one set (keys and grid) covering x, appended to out from index n.
     int lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
                const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const;
+    // lookup's two halves. A candidate: a prism whose key passed at x shifted by (i, j) periods
+    // of the ocean patch.
+    struct BeamCandidate {
+        uint32_t prism;
+        int32_t i, j;
+    };
+    // Appends the candidates at x (in the order lookup evaluates them), their prisms fetched ahead.
+    void find_candidates(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
+                         const Vec3& x, int medium, std::vector<BeamCandidate>* found) const;
+    // The beams of found[0, count) covering x, appended to out from index n (at most max in all).
+    int eval_candidates(const HugeVector<BeamPrism>& prisms, const BeamCandidate* found, size_t count,
+                        const Vec3& x, BeamSample* out, int n, int max, bool exact) const;
+    // beams_at's beams of a flat sea (refracted, or reflected into the air), before the prisms'.
+    int flat_beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool exact) const;
     // The bounds of meshes, radiometers and the ocean (not cameras): where reflected beams end.
     Vec3 bounds_lo_{-1, -1, -1}, bounds_hi_{1, 1, 1};
     // The first of the boxes [lo_i, hi_i] (grown by tol) in which an opaque triangle may lie,
