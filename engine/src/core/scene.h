@@ -344,8 +344,8 @@ private:
                           int n, Spectrum* out, double* deferred_t) const;
     // A path's beam-scattering terms (along its water segments and its MIS rays) whose points
     // are drawn in turn but whose beams are looked up together when the path ends: all their
-    // grid cells are fetched, then all their candidates' keys, so that the misses of a path's
-    // lookups overlap instead of queueing. Each term is weight * I / den (the factors and
+    // grid cells are fetched, then all their candidates' keys, then the prisms whose keys pass
+    // (the candidates kept), so that the misses of a path's lookups overlap instead of queueing. Each term is weight * I / den (the factors and
     // their order as when each was added at once), added to beam_volume in the order drawn,
     // before anything else adds to it: the same sums, bit for bit.
     struct BeamTerms {
