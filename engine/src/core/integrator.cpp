@@ -36,7 +36,10 @@ void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int mediu
                                Spectrum* out, double* deferred_t) const {
     *out = Spectrum();
     double t, pdf;
-    if (beam_scatter_point(waters[medium], d, T, rng, &t, &pdf)) beam_scatter_at(o, d, t, pdf, medium, out, deferred_t);
+    if (!beam_scatter_point(waters[medium], d, T, rng, &t, &pdf)) return;
+    thread_local BeamSample beams[kMaxBeams];  // per thread: zeroing 64 spectra per call costs
+    const int n = beams_at(o + d * t, medium, beams, kMaxBeams);
+    beam_scatter_sum(o, d, t, pdf, medium, beams, n, out, deferred_t);
 }
 
 bool Scene::beam_scatter_point(const Water& w, const Vec3& d, double T, Rng& rng, double* t_out,
@@ -65,13 +68,6 @@ bool Scene::beam_scatter_point(const Water& w, const Vec3& d, double T, Rng& rng
     *t_out = t;
     *pdf_out = pdf;
     return true;
-}
-
-void Scene::beam_scatter_at(const Vec3& o, const Vec3& d, double t, double pdf, int medium, Spectrum* out,
-                            double* deferred_t) const {
-    thread_local BeamSample beams[kMaxBeams];  // per thread: zeroing 64 spectra per call costs
-    const int n = beams_at(o + d * t, medium, beams, kMaxBeams);
-    beam_scatter_sum(o, d, t, pdf, medium, beams, n, out, deferred_t);
 }
 
 void Scene::beam_scatter_sum(const Vec3& o, const Vec3& d, double t, double pdf, int medium,
@@ -164,25 +160,22 @@ void Scene::settle_beam_terms(BeamTerms& b, Spectrum* volume) const {
     // evaluated and added in order.
     auto vec = [](const double* v) { return Vec3(v[0], v[1], v[2]); };
     auto point = [&](const BeamTerms::Term& e) { return vec(e.o) + vec(e.d) * e.t; };
-    for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), b.terms[i].medium, 0);
-    for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), b.terms[i].medium, 1);
+    for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), 0);
+    for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), 1);
     thread_local std::vector<BeamCandidate> found;  // per thread: kept, so rarely grown
     found.clear();
     size_t first[BeamTerms::kMax + 1];
     for (int i = 0; i < b.n; ++i) {
-        const BeamTerms::Term& e = b.terms[i];
         first[i] = found.size();
-        if (e.medium < 0) find_candidates(air_prisms, air_keys_, air_grid_, point(e), -1, &found);
-        else find_candidates(prisms, prism_keys_, grid_, point(e), e.medium, &found);
+        find_candidates(prisms, prism_keys_, grid_, point(b.terms[i]), b.terms[i].medium, &found);
     }
     first[b.n] = found.size();
-    thread_local BeamSample beams[kMaxBeams];  // (as beam_scatter_at's)
+    thread_local BeamSample beams[kMaxBeams];  // (as beam_scatter_along's)
     for (int i = 0; i < b.n; ++i) {
         const BeamTerms::Term& e = b.terms[i];
         const Vec3 x = point(e);
         int n = flat_beams_at(x, e.medium, beams, kMaxBeams, true);
-        n = eval_candidates(e.medium < 0 ? air_prisms : prisms, found.data() + first[i], first[i + 1] - first[i], x,
-                            beams, n, kMaxBeams, true);
+        n = eval_candidates(prisms, found.data() + first[i], first[i + 1] - first[i], x, beams, n, kMaxBeams, true);
         Spectrum I;
         beam_scatter_sum(vec(e.o), vec(e.d), e.t, e.pdf, e.medium, beams, n, &I, nullptr);
         for (int k = 0; k < nbands; ++k) volume->v[k] += e.weight[k] * I.v[k] / e.den;

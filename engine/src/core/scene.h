@@ -334,20 +334,18 @@ public:
                     bool exact = true) const;
 
 private:
-    // beam_scatter_along's two halves: the distance t drawn (with its pdf; false: no point, the
-    // term is 0), and the beams at x = o + d t summed.
+    // beam_scatter_along's halves: the distance t drawn (with its pdf; false: no point, the
+    // term is 0), and the sum over the beams found at x = o + d t.
     bool beam_scatter_point(const Water& w, const Vec3& d, double T, Rng& rng, double* t, double* pdf) const;
-    void beam_scatter_at(const Vec3& o, const Vec3& d, double t, double pdf, int medium, Spectrum* out,
-                         double* deferred_t) const;
-    // beam_scatter_at's sum over the beams found at x = o + d t.
     void beam_scatter_sum(const Vec3& o, const Vec3& d, double t, double pdf, int medium, const BeamSample* beams,
                           int n, Spectrum* out, double* deferred_t) const;
-    // A path's beam-scattering terms (along its water segments and its MIS rays) whose points
-    // are drawn in turn but whose beams are looked up together when the path ends: all their
-    // grid cells are fetched, then all their candidates' keys, then the prisms whose keys pass
-    // (the candidates kept), so that the misses of a path's lookups overlap instead of queueing. Each term is weight * I / den (the factors and
-    // their order as when each was added at once), added to beam_volume in the order drawn,
-    // before anything else adds to it: the same sums, bit for bit.
+    // A path's beam-scattering terms in water (along its water segments and its MIS rays) whose
+    // points are drawn in turn but whose beams are looked up together when the path ends: all
+    // their grid cells are fetched, then all their candidates' keys, then the prisms whose keys
+    // pass (the candidates kept), so that the misses of a path's lookups overlap instead of
+    // queueing. Each term is weight * I / den (the factors and their order as when each was
+    // added at once), added to beam_volume in the order drawn, before anything else adds to
+    // it: the same sums, bit for bit.
     struct BeamTerms {
         static constexpr int kMax = 24;
         struct Term {  // (plain arrays: a path's list is not cleared when made)
@@ -367,14 +365,14 @@ private:
     Components trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
                           Counters& c, double first_beam_weight, bool camera, bool reflect_covered,
                           BeamTerms& terms) const;
-    // Starts fetching the beam grid's cell at x (a hint: a later beams_at there then finds it
-    // in the cache; the cell by multiplications, which may differ from lookup's at a cell's
+    // Starts fetching the water beams' grid cell at x (a hint: a later lookup there then finds
+    // it in the cache; the cell by multiplications, which may differ from lookup's at a cell's
     // edge; for a periodic patch, x's own period only). stage 1: reads that cell and fetches
     // its candidates' keys (after stage 0 for many points in turn, so that their misses
     // overlap). Always inlined: GCC's link-time optimisation takes an out-of-line function
     // that only reads memory and prefetches for one without effects, and drops its calls.
-    __attribute__((always_inline)) void prefetch_beams(const Vec3& x, int medium, int stage = 0) const {
-        const BeamGrid& grid = medium < 0 ? air_grid_ : grid_;
+    __attribute__((always_inline)) void prefetch_beams(const Vec3& x, int stage) const {
+        const BeamGrid& grid = grid_;
         if (grid.nx == 0) return;
         const double fx = (x.x + grid.sx * x.z - grid.lo.x) * grid.inv_cell.x;
         const double fy = (x.y + grid.sy * x.z - grid.lo.y) * grid.inv_cell.y;
@@ -386,7 +384,7 @@ private:
             __builtin_prefetch(rec);
             return;
         }
-        prefetch_cell_keys(grid, rec, medium < 0 ? air_keys_ : prism_keys_);
+        prefetch_cell_keys(grid, rec, prism_keys_);
     }
     struct BeamGrid {  // uniform grid over prism pieces (primary patch frame, sheared)
         double sx = 0.0, sy = 0.0;  // cell (i, j, k) holds u = x + sx z, v = y + sy z, z
