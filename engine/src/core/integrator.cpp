@@ -450,7 +450,10 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 // The refracted sun on an underwater surface: every beam covering the point.
                 walk.flush(waters[medium], &beta);
                 int nbm = beams_at(xo, medium, beams, kMaxBeams);
-                if (has_beams()) best = brightest(beams, nbm);
+                // (Beam-direction samples, below, only where the water scatters: else they
+                // have no density, and a guided continuation drawn from them would be counted
+                // as if it had, adding light that is not there.)
+                if (has_beams() && waters[medium].scatters()) best = brightest(beams, nbm);
                 for (int j = 0; j < nbm; ++j) {
                     double cs = -dot(beams[j].d, n);
                     if (cs <= 0.0) continue;
@@ -827,7 +830,9 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
     // The beams at the radiometer serve both the MIS below and the closed-form direct term.
     const BeamSample* beams = at_sensor;
     const int nbeams = sensor_beams ? n_at_sensor : 0;
-    if (const BeamSample* best = brightest(beams, nbeams)) {
+    // (Beam-direction samples only in water that scatters, as at surface vertices.)
+    const BeamSample* best = sensor_beams && waters[r.medium].scatters() ? brightest(beams, nbeams) : nullptr;
+    if (best) {
         const Vec3 bd = best->d;
         // Beam-scattering MIS for the first segment: the sensor's own directions against
         // directions drawn from the phase function around the beam (looking towards the sun).

@@ -65,6 +65,10 @@ struct Water {
     // Its kind: homogeneous (one layer, no grid), layered (stratified) or gridded (grid set,
     // over one layer or several); varying(): not homogeneous.
     bool stratified() const { return layers.size() > 1; }
+    // Whether the water scatters anywhere, in any band: only then are there beam-direction
+    // samples (Scene::sample_beam_direction draws from the scattering components' phase
+    // functions; with no scattering their pdf is 0 and no direction may be drawn from them).
+    bool scatters() const { return mis_wsum > 0.0; }
 
     // ---- What the integrator and the beams ask, whatever the kind ----
     // The path/beam coefficients from the components' b and a with the forward cone's
