@@ -11,7 +11,8 @@ gridded water, glint, the canonical problems at a small budget, error bars) and 
 - the standard errors' calibration: the spread of 16 seeds' means against the median reported
   standard error on four scenes (a flat sea in the exact mode, an oblique sun under waves, a
   bottom under strongly scattering water as in problem 6 of Mobley et al. 1993, and image
-  pixels under waves).
+  pixels under waves). (The exact mode below waves is flagged as untrusted in every run, by
+  design: docs/physics.md; it has no calibration to check.)
 
 Every change to the integrators, the beams or the radiometers runs it before it lands. Its
 results (z-scores and calibration ratios) are printed at the end of the run, and with
@@ -146,7 +147,6 @@ def calibrate(label, make, samples, calibration):
 @pytest.mark.parametrize("label,make,samples", [
     ("flat sea, sun 30 deg, exact mode", lambda s: sea_scene("flat", 30.0, 0.0, s), 16384),
     ("waves, sun 60 deg, cone 3 deg", lambda s: sea_scene("waves", 60.0, 3.0, s), 16384),
-    ("waves, sun 60 deg, exact mode", lambda s: sea_scene("waves", 60.0, 0.0, s), 16384),
     ("bottom (problem 6), sun 60 deg", bottom_scene, 65536),
 ])
 def test_radiometer_standard_errors_are_calibrated(calibration, label, make, samples):
