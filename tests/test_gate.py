@@ -18,12 +18,18 @@ Every change to the integrators, the beams or the radiometers runs it before it 
 results (z-scores and calibration ratios) are printed at the end of the run, and with
 ``--gate-report FILE`` written as Markdown (docs/verification.md holds the last one).
 """
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from photic.render import render
 from photic.scene import Scene
-from test_beams_objects import OBJECTS, cube, probe_points, waves
+from test_beams_objects import OBJECTS, probe_points, waves
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+from se_calibration import bottom_scene  # noqa: E402
 
 pytestmark = [pytest.mark.slow, pytest.mark.gate]
 
@@ -97,28 +103,6 @@ def sea_scene(surface, zenith, cone, seed):
                       "direction": [0, 0, -1], "up": [0, 1, 0], "fov_deg": 60, "resolution": [24, 16]}],
          "settings": {"integrator": "hybrid", "seed": seed, "forward_cone_deg": cone}}
     return Scene.from_dict(d)
-
-
-def bottom_scene(seed):
-    """Problem 2 of Mobley et al. (1993) (c = 1 m^-1, single-scattering albedo 0.9, Petzold,
-    sun at 60 deg, black sky, flat surface) over a Lambertian bottom of reflectance 0.5 at 5 m
-    (optical depth 5), as problem 6 puts a bottom under it: Ed, Eou and Lu (the mu >= 0.9 cap)
-    at 1, 3 and 4.5 m."""
-    rads = []
-    for z in (1.0, 3.0, 4.5):
-        rads += [{"name": f"Ed_{z:g}", "quantity": "Ed", "position": [0.0, 0.0, -z]},
-                 {"name": f"Eou_{z:g}", "quantity": "Eou", "position": [0.0, 0.0, -z]},
-                 {"name": f"Lu_{z:g}", "quantity": "radiance", "position": [0.0, 0.0, -z],
-                  "direction": [0.0, 0.0, -1.0], "half_angle_deg": float(np.degrees(np.arccos(0.9)))}]
-    return Scene.from_dict({
-        "photic_scene": 1, "name": "bottom",
-        "materials": {"bottom": {"type": "lambertian", "reflectance": [0.5]}},
-        "water": [{"name": "sea", "type": "ocean", "ior": 1.34, "surface": {"kind": "flat", "z": 0.0},
-                   "iops": {"absorption": [0.1], "b": [0.9], "phase": {"type": "petzold"}},
-                   "bottom": {"depth": 5.0, "material": "bottom"}}],
-        "sun": {"zenith_deg": 60.0, "azimuth_deg": 0.0, "irradiance": [1.0]},
-        "sky": {"type": "black"}, "radiometers": rads,
-        "settings": {"integrator": "hybrid", "seed": seed}})
 
 
 def calibrate(label, make, samples, calibration):
