@@ -1016,8 +1016,6 @@ void Scene::trace_rays(const float* o, const float* d, size_t n, int threads, fl
     size_t nblocks = (n + kBlock - 1) / kBlock;
     parallel_for(nblocks, threads, [&](size_t blk, int) {
         size_t b = blk * kBlock, e = std::min(n, b + kBlock);
-        RTCIntersectContext ctx;
-        rtcInitIntersectContext(&ctx);
         for (size_t i = b; i < e; ++i) {
             RTCRayHit rh;
             rh.ray.org_x = o[3 * i]; rh.ray.org_y = o[3 * i + 1]; rh.ray.org_z = o[3 * i + 2];
@@ -1025,7 +1023,7 @@ void Scene::trace_rays(const float* o, const float* d, size_t n, int threads, fl
             rh.ray.tnear = 0.0f; rh.ray.tfar = tmax ? tmax[i] : std::numeric_limits<float>::infinity();
             rh.ray.time = 0.0f; rh.ray.mask = 0xFFFFFFFFu; rh.ray.id = 0; rh.ray.flags = 0;
             rh.hit.geomID = RTC_INVALID_GEOMETRY_ID; rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-            rtcIntersect1(scene_, &ctx, &rh);
+            rtcIntersect1(scene_, &rh);
             t_out[i] = rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? -1.0f : rh.ray.tfar;
         }
     });

@@ -1,7 +1,6 @@
 // The compiled scene: geometry in Embree, water bodies, sun, sky and sensors.
 // Built once from Python (photic.compile), then traced from many threads without the GIL.
 #pragma once
-#include <embree3/rtcore.h>
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -16,6 +15,7 @@
 #include "rough_interface.h"
 #include "medium.h"
 #include "huge_pages.h"
+#include "embree4_api.h"
 
 namespace photic {
 
