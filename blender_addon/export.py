@@ -14,7 +14,8 @@ type and Photic role, to the module of its concept; they collect into one shared
 ``export_iops``             homogeneous IOPs and phase functions (profiles and grids:
                             ``natural_waters``)
 ``export_radiometers``      radiometers and radiometer arrays
-``export_light``            the sun lamp and the world's sky
+``export_light``            the sun lamp
+``export_world``            the world's sky (colour, Environment Texture, Sky Texture)
 ``export_camera``           the scene's camera or the viewport's ``ViewCamera``
 ``export_settings``         the render settings
 ``export_values``           ``ExportError`` and reading property values
@@ -32,7 +33,8 @@ import numpy as np
 
 from .export_camera import ViewCamera, camera
 from .export_geometry import GEOMETRY_TYPES, add_opaque, build_meshes, mesh_key
-from .export_light import add_light, sky, sun
+from .export_light import add_light, sun
+from .export_world import sky
 from .export_radiometers import add_radiometer, add_radiometer_array
 from .export_settings import settings
 from .export_state import ExportInfo, ExportState
@@ -64,7 +66,7 @@ def walk(ex: ExportState) -> None:
             continue
         if obj.type == "CAMERA":
             continue
-        key = mesh_key(obj)
+        key = mesh_key(obj, inst.is_instance)
         if role == "RADIOMETER":
             add_radiometer(ex, original, matrix)
         elif role == "RADIOMETER_ARRAY":

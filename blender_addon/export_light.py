@@ -1,6 +1,5 @@
-"""The light falling on the scene: the one sun lamp as the engine's sun (direction, irradiance
-per band, angular diameter) and the world as its sky (black, uniform or cardioidal radiance,
-or the world's background colour). Other lamp types are not used, with a warning."""
+"""The sun: the one sun lamp as the engine's sun (direction, irradiance per band, angular
+diameter). Other lamp types are not used, with a warning on the lamp. The sky: ``export_world``."""
 from __future__ import annotations
 
 import math
@@ -9,16 +8,19 @@ import numpy as np
 
 from . import bands as bandmod
 from .export_values import ExportError, _finite_non_negative, blender_float, per_band
-from .nodes import find_node
 
 
 def add_light(ex, obj, matrix):
     """A lamp instance: kept when it is a sun (``sun`` then checks there is only one)."""
     light = obj.data
     if light.type != "SUN":
-        ex.info.warnings.append(f"Light '{obj.name}': {light.type.lower()} lights are not "
-                                f"used by Photic (only sun lamps)")
+        ex.warn(f"Light '{obj.name}': {light.type.lower()} lights are not used by Photic (only "
+                f"sun lamps; an emitting mesh renders as a light)", ("OBJECT", obj.name),
+                ("LIGHT", light.name))
         return
+    if getattr(light, "use_nodes", False) and getattr(light, "node_tree", None) is not None:
+        ex.warn(f"Light '{obj.name}': its shader nodes are not rendered (Strength and Color are)",
+                ("OBJECT", obj.name), ("LIGHT", light.name))
     ex.suns.append((obj, np.asarray(matrix, float)))
 
 
@@ -69,28 +71,3 @@ def sun(ex):
                                                        f"{p.range_text()} degrees (the real "
                                                        f"sun: 0.53)")
     return S.Sun(zenith, azimuth, irradiance, angular_diameter_deg=diameter)
-
-
-def sky(ex):
-    """The engine's sky from the scene's world (black without one)."""
-    S = ex.photic.scene
-    world = ex.bscene.world
-    if world is None:
-        return S.Sky("black")
-    p = world.original.photic
-    owner = f"World '{world.name}'"
-    if p.sky_model == "BLACK":
-        return S.Sky("black")
-    if p.sky_model == "FROM_WORLD":
-        colour, strength = tuple(world.color)[:3], 1.0
-        node = find_node(world, "BACKGROUND")
-        if node is not None:
-            colour = tuple(node.inputs["Color"].default_value)[:3]
-            strength = float(node.inputs["Strength"].default_value)
-        l0 = strength * bandmod.rgb_to_bands(colour, ex.bands)
-        _finite_non_negative(owner, "Surface > Color x Strength", l0, "sky radiance")
-        return S.Sky("uniform", l0) if np.any(l0 > 0) else S.Sky("black")
-    l0 = blender_float(p.radiance) * bandmod.rgb_to_bands(
-        tuple(blender_float(c) for c in p.color), ex.bands)
-    _finite_non_negative(owner, "Photic > Radiance L0 (photic.radiance)", l0, "sky radiance")
-    return S.Sky("uniform" if p.sky_model == "UNIFORM" else "cardioidal", l0)

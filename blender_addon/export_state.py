@@ -22,6 +22,9 @@ class ExportInfo:
     instances: int = 0
     meshes_evaluated: int = 0
     warnings: list = field(default_factory=list)
+    # What Photic does not render, or renders approximately, per data-block the panels show
+    # it on: ("OBJECT" | "MATERIAL" | "WORLD" | "LIGHT" | "SCENE", name) -> [text]
+    notes: dict = field(default_factory=dict)
     time_s: float = 0.0
     radiometer_objects: dict = field(default_factory=dict)  # engine radiometer -> object
 
@@ -51,7 +54,22 @@ class ExportState:
         self.groups: dict = {}
         self.group_names: dict = {}  # (key, material name) -> the first object's name
         self.mesh_cache: dict = {}   # key -> evaluated mesh arrays (export_geometry.mesh_data)
+        self.uv_cache: dict = {}     # key -> {UV map name: (triangles, 3, 2)} (mesh_data)
         self.water = []              # photic WaterBody (export_water)
         self.suns = []               # (sun lamp object, matrix) (export_light)
         self.radiometers = []        # photic Radiometer (export_radiometers)
         self.arrays = []             # photic RadiometerArray (export_radiometers)
+        self.material_notes: dict = {}  # engine material name -> its notes (export_materials)
+        self.textured: dict = {}     # engine material name -> (UV map name or "", 2x3 affine or None)
+        self.has_ocean = False       # a water surface (which hides the sky below the horizon)
+
+    def warn(self, text: str, *ids) -> None:
+        """A warning for the user: once in the render's log however often it is met (an
+        instanced object's is met per instance), and on the panels of the data-blocks ``ids``
+        ((kind, name) pairs, see ``ExportInfo.notes``)."""
+        if text not in self.info.warnings:
+            self.info.warnings.append(text)
+        for key in ids:
+            lst = self.info.notes.setdefault(key, [])
+            if text not in lst:
+                lst.append(text)

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from . import bands as bandmod
+from . import scene_notes
 from .engine_loader import load_engine, engine_error
 from .export import ExportCancelled, ExportError, export_scene
 
@@ -378,7 +379,9 @@ class FinalRender:
         except photic.scene.SceneError as exc:
             self.fail(str(exc))
             return
-        for w in info.warnings:
+        scene_notes.remember(bscene.name, info)
+        self.summary["export_warnings"] = list(info.warnings)
+        for w in info.warnings:  # (each once, however many instances met it)
             engine.report({"WARNING"}, w)
         if EXPORT_HOOK is not None:
             EXPORT_HOOK(scene)

@@ -7,7 +7,7 @@ import bpy
 from bpy.props import FloatProperty, IntProperty, StringProperty
 
 from .engine_loader import engine_error, load_engine
-from . import natural_waters
+from . import natural_waters, scene_notes
 from .export import ExportCancelled, ExportError, export_scene
 from .properties import MAX_FURTHER_FIELDS
 
@@ -34,6 +34,7 @@ class PHOTIC_OT_export_scene(bpy.types.Operator):
         except (ExportError, ExportCancelled, photic.scene.SceneError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
+        scene_notes.remember(context.scene.name, info)
         for w in info.warnings:
             self.report({"WARNING"}, w)
         path = bpy.path.abspath(self.filepath)
@@ -44,6 +45,23 @@ class PHOTIC_OT_export_scene(bpy.types.Operator):
     def invoke(self, context, event):
         context.window_manager.fileselect_add(self)
         return {"RUNNING_MODAL"}
+
+
+class PHOTIC_OT_use_ocean_modifier(bpy.types.Operator):
+    """Render this Water Surface's Ocean modifier as the sea surface (Surface Shape: Mesh
+    Patch, repeated with the ocean's period)"""
+
+    bl_idname = "photic.use_ocean_modifier"
+    bl_label = "Render the Ocean Modifier"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None and hasattr(context.object, "photic")
+
+    def execute(self, context):
+        context.object.photic.surface_shape = "MESH"
+        return {"FINISHED"}
 
 
 class PHOTIC_OT_read_volume_grids(bpy.types.Operator):
@@ -308,7 +326,7 @@ class PHOTIC_OT_clear_sky_sun(bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (PHOTIC_OT_export_scene, PHOTIC_OT_read_volume_grids, PHOTIC_OT_grid_field_add,
+classes = (PHOTIC_OT_export_scene, PHOTIC_OT_use_ocean_modifier, PHOTIC_OT_read_volume_grids, PHOTIC_OT_grid_field_add,
            PHOTIC_OT_grid_fields_from_source, PHOTIC_OT_grid_field_remove, PHOTIC_OT_import_scene,
            PHOTIC_OT_clear_sky_sun)
 

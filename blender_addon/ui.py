@@ -3,7 +3,9 @@ from __future__ import annotations
 
 import bpy
 
-from . import final_render
+import textwrap
+
+from . import final_render, scene_notes
 from .natural_waters import WATER_ROLES
 from .properties import MAX_FURTHER_FIELDS
 from .engine_loader import engine_error, load_engine
@@ -28,6 +30,22 @@ def _engine_status(layout) -> None:
         msg = engine_error() or ""
         for i in range(0, min(len(msg), 600), 60):
             box.label(text=msg[i:i + 60])
+
+
+def _draw_notes(layout, context, kind: str, name: str) -> None:
+    """What the last render or viewport export could not render of this data-block (a box of
+    wrapped lines under a warning icon), if anything."""
+    notes = scene_notes.for_id(context.scene.name, kind, name)
+    if not notes:
+        return
+    box = layout.box()
+    width = max(30, int((getattr(context.region, "width", 400) or 400) / 7.5))
+    box.label(text=f"Not rendered as in Blender ({len(notes)}), from the last render:", icon="ERROR")
+    for note in notes[:12]:
+        for i, line in enumerate(textwrap.wrap(note, width)):
+            box.label(text=("   " if i else "- ") + line)
+    if len(notes) > 12:
+        box.label(text=f"... {len(notes) - 12} more in the render's log")
 
 
 class PHOTIC_PT_render(PhoticPanel, bpy.types.Panel):
@@ -150,13 +168,24 @@ class PHOTIC_PT_object(PhoticPanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
-        p = context.object.photic
+        obj = context.object
+        p = obj.photic
+        _draw_notes(layout, context, "OBJECT", obj.name)
         layout.prop(p, "role")
         if p.role in WATER_ROLES:
             _draw_iops(layout, p, "iop_source", "iop_model", "")
             layout.prop(p, "ior")
         if p.role == "WATER_SURFACE":
             layout.prop(p, "surface_shape")
+            ocean = next((m for m in obj.modifiers if m.type == "OCEAN" and m.show_render), None)
+            if ocean is not None and p.surface_shape != "MESH":
+                col = layout.column()
+                col.alert = True
+                col.label(text=f"Ocean modifier '{ocean.name}' is not rendered", icon="ERROR")
+                col.operator("photic.use_ocean_modifier", icon="MOD_OCEAN")
+            elif ocean is not None:
+                layout.label(text=f"Waves: Ocean modifier '{ocean.name}', period "
+                                  f"{ocean.spatial_size * ocean.size:g} m", icon="MOD_OCEAN")
             if p.surface_shape == "WAVES":
                 col = layout.column(align=True)
                 col.prop(p, "wave_spectrum")
@@ -325,11 +354,12 @@ class PHOTIC_PT_material(PhoticPanel, bpy.types.Panel):
         layout.use_property_split = True
         mat = context.material
         p = mat.photic
+        _draw_notes(layout, context, "MATERIAL", mat.name)
         layout.prop(p, "use_override")
         if p.use_override:
             _value_or_bands(layout, p, "reflectance", "reflectance_bands")
         else:
-            layout.label(text="Lambertian, reflectance = Principled BSDF base colour")
+            layout.label(text="Matte (Lambertian): Base Color, an Image Texture on it, Emission")
             node = find_node(mat, "BSDF_PRINCIPLED")
             if node is not None:
                 layout.prop(node.inputs["Base Color"], "default_value", text="Base Color")
@@ -358,6 +388,7 @@ class PHOTIC_PT_light(PhoticPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         light = context.light
+        _draw_notes(layout, context, "LIGHT", light.name)
         if light.type != "SUN":
             layout.label(text="Photic renders sun lamps only: this light is not used", icon="INFO")
             return
@@ -387,11 +418,13 @@ class PHOTIC_PT_world(PhoticPanel, bpy.types.Panel):
         layout.use_property_split = True
         world = context.world
         p = world.photic
+        _draw_notes(layout, context, "WORLD", world.name)
         layout.prop(p, "sky_model")
         if p.sky_model in {"UNIFORM", "CARDIOIDAL"}:
             layout.prop(p, "radiance")
             layout.prop(p, "color")
         elif p.sky_model == "FROM_WORLD":
+            layout.label(text="Background colour, Environment Texture; Sky Texture approximated")
             node = find_node(world, "BACKGROUND")
             if node is not None:
                 layout.prop(node.inputs["Color"], "default_value", text="Color")

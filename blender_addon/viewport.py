@@ -12,6 +12,7 @@ import traceback
 import numpy as np
 
 from . import bands as bandmod
+from . import scene_notes
 from .engine_loader import engine_error, load_engine
 from .export import ExportCancelled, ExportError, ViewCamera, export_scene
 
@@ -69,11 +70,12 @@ class ViewportRender:
             self.message = engine_error()
             return
         try:
-            scene, _ = export_scene(depsgraph, photic, view_camera=view_camera(context, width, height),
-                                    resolution=(width, height))
+            scene, info = export_scene(depsgraph, photic, view_camera=view_camera(context, width, height),
+                                       resolution=(width, height))
         except (ExportError, ExportCancelled, photic.scene.SceneError) as exc:
             self.message = str(exc)
             return
+        scene_notes.remember(depsgraph.scene_eval.name, info)
         scene.radiometers, scene.radiometer_arrays = [], []  # final renders measure them
         scene.settings.samples = int(depsgraph.scene_eval.photic.viewport_samples)
         self.bands = [(b.name, b.center_nm, b.width_nm) for b in scene.bands]

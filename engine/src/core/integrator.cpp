@@ -436,7 +436,9 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
 
         if (h.kind == SurfaceKind::kOpaque) {
             Vec3 n = dot(h.n, d) > 0.0 ? -h.n : h.n;  // face the arriving ray
-            const Material& m = materials[h.index];
+            const Material m = surface_at(h);  // (a texture's reflectance at the hit)
+            if (m.emits)
+                for (int k = 0; k < nb; ++k) out.path.v[k] += beta.v[k] * m.emission.v[k];
             Vec3 xo = x + n * off;
             bool nee = has_sun && medium < 0;
             if (nee) {
@@ -703,14 +705,18 @@ void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
         }
 }
 
-void Scene::camera_guides(int ci, int per_axis, int threads, float* albedo, float* normal) const {
+void Scene::camera_guides(int ci, int per_axis, int threads, float* albedo, float* normal, int row0,
+                          int row1) const {
     const Camera& cam = cameras.at(ci);
     const int nb = nbands;
     const int n = std::max(1, per_axis);
     const double inv = 1.0 / double(n * n);
     const double far = 1e6;  // m: a ray that meets nothing, as far as water can matter
     int nthreads = threads <= 0 ? int(std::max(1u, std::thread::hardware_concurrency())) : threads;
-    parallel_for(size_t(cam.height), nthreads, [&](size_t row, int) {
+    if (row1 < 0 || row1 > cam.height) row1 = cam.height;
+    row0 = std::clamp(row0, 0, row1);
+    parallel_for(size_t(row1 - row0), nthreads, [&](size_t i, int) {
+        const size_t row = size_t(row0) + i;
         for (int px = 0; px < cam.width; ++px) {
             double alb[kMaxBands] = {};
             Vec3 nrm;
@@ -741,9 +747,10 @@ void Scene::camera_guides(int ci, int per_axis, int threads, float* albedo, floa
                         const double off = offset_for(x);
                         if (h.kind == SurfaceKind::kOpaque) {
                             Vec3 nf = dot(h.n, d) > 0.0 ? -h.n : h.n;
+                            const Material surface = surface_at(h);
                             double mean_w = 0.0;
                             for (int k = 0; k < nb; ++k) {
-                                alb[k] += wgt[k] * materials[h.index].reflectance.v[k] * inv;
+                                alb[k] += wgt[k] * surface.reflectance.v[k] * inv;
                                 mean_w += wgt[k];
                             }
                             nrm = nrm + nf * (mean_w / nb * inv);
@@ -770,7 +777,7 @@ void Scene::camera_guides(int ci, int per_axis, int threads, float* albedo, floa
                         }
                     }
                 }
-            const size_t pix = row * size_t(cam.width) + size_t(px);
+            const size_t pix = i * size_t(cam.width) + size_t(px);  // (rows from row0)
             for (int k = 0; k < nb; ++k) albedo[pix * nb + k] = float(std::min(1.0, std::max(0.0, alb[k])));
             normal[pix * 3 + 0] = float(nrm.x);
             normal[pix * 3 + 1] = float(nrm.y);

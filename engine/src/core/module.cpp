@@ -141,9 +141,36 @@ PYBIND11_MODULE(_core, m) {
             return out;
         }, py::arg("x"), py::arg("medium"), "(direction, irradiance normal to it per band) of every beam at x.")
         .def("add_material", [](Scene& s, DArray refl) {
-            s.materials.push_back({to_spectrum(refl, s.nbands, "reflectance")});
+            Material m;
+            m.reflectance = to_spectrum(refl, s.nbands, "reflectance");
+            s.materials.push_back(m);
             return int(s.materials.size()) - 1;
         })
+        .def("set_material_emission", [](Scene& s, int material, DArray emission) {
+            Material& m = s.materials.at(material);
+            m.emission = to_spectrum(emission, s.nbands, "emission");
+            m.emits = false;
+            for (int k = 0; k < s.nbands; ++k) m.emits |= m.emission.v[k] != 0.0;
+        }, py::arg("material"), py::arg("emission"), "Radiance the material emits (per band), from both faces.")
+        .def("set_material_texture", [](Scene& s, int material, FArray image, bool clamp, bool closest) {
+            if (image.ndim() != 3 || image.shape(2) != s.nbands || image.shape(0) < 1 || image.shape(1) < 1)
+                throw std::invalid_argument("texture must be (height, width, nbands) float32");
+            Texture t;
+            t.height = int(image.shape(0)); t.width = int(image.shape(1)); t.clamp = clamp; t.closest = closest;
+            t.texels.assign(image.data(), image.data() + image.size());
+            for (float x : t.texels)
+                if (!(x >= 0.0f && x <= 1.0f)) throw std::invalid_argument("texture reflectances must be in [0, 1]");
+            s.textures.push_back(std::move(t));
+            s.materials.at(material).texture = int(s.textures.size()) - 1;
+        }, py::arg("material"), py::arg("image"), py::arg("clamp") = false, py::arg("closest") = false,
+           "A reflectance texture (height, width, nbands), rows from v = 0 up; bilinear (or the "
+           "nearest texel), repeating or clamped.")
+        .def("set_mesh_uv", [](Scene& s, int mesh, FArray uv) {
+            MeshRecord& m = s.meshes.at(mesh);
+            if (uv.ndim() != 3 || uv.shape(1) != 3 || uv.shape(2) != 2 || size_t(uv.shape(0)) * 3 != m.triangles.size())
+                throw std::invalid_argument("uv must be (triangles, 3, 2) float32");
+            m.corner_uv.assign(uv.data(), uv.data() + uv.size());
+        }, py::arg("mesh"), py::arg("uv"), "Texture coordinates at each triangle's corners.")
         .def("add_phase", [](Scene& s, const PhaseFunction& p) {
             s.phases.push_back(p);
             return int(s.phases.size()) - 1;
@@ -302,6 +329,12 @@ PYBIND11_MODULE(_core, m) {
             s.sky_nt = int(table.shape(0)); s.sky_np = int(table.shape(1));
             s.sky_table.assign(table.data(), table.data() + table.size());
         }, py::arg("table"), "Relative sky radiance on (zenith 0..90 deg) x (azimuth 0..360 deg, periodic) nodes; sky type 3.")
+        .def("set_sky_table_bands", [](Scene& s, DArray table) {
+            if (table.ndim() != 3 || table.shape(0) < 2 || table.shape(1) < 1 || table.shape(2) != s.nbands)
+                throw std::invalid_argument("sky table must be (n_theta >= 2, n_phi >= 1, nbands)");
+            s.sky_nt = int(table.shape(0)); s.sky_np = int(table.shape(1));
+            s.sky_table.assign(table.data(), table.data() + table.size());
+        }, py::arg("table"), "Relative sky radiance per band on (zenith 0..90 deg) x (azimuth 0..360 deg) nodes; sky type 4.")
         .def("set_sky", [](Scene& s, int type, DArray l0, bool full_sphere) {
             s.sky_type = type;
             s.sky_l0 = to_spectrum(l0, s.nbands, "sky radiance");
@@ -375,18 +408,24 @@ PYBIND11_MODULE(_core, m) {
            "out = (sum, sum of squares) arrays to fill instead of new ones; active = a (height, "
            "width) mask: pixels where it is 0 take no samples (their sums are 0); rows = (first, "
            "end): only those rows (the sums' first axis has end - first rows).")
-        .def("camera_guides", [](const Scene& s, int cam, int per_axis, int threads) {
+        .def("camera_guides", [](const Scene& s, int cam, int per_axis, int threads, std::optional<std::pair<int, int>> rows) {
             const Camera& c = s.cameras.at(cam);
             if (per_axis < 1 || per_axis > 16) throw std::invalid_argument("per_axis: expected 1..16");
-            py::array_t<float> albedo({c.height, c.width, s.nbands}), normal({c.height, c.width, 3});
+            int r0 = 0, r1 = c.height;
+            if (rows) {
+                r0 = rows->first; r1 = rows->second;
+                if (r0 < 0 || r1 > c.height || r0 >= r1) throw std::invalid_argument("rows: expected 0 <= first < end <= height");
+            }
+            py::array_t<float> albedo({r1 - r0, c.width, s.nbands}), normal({r1 - r0, c.width, 3});
             {
                 py::gil_scoped_release nogil;
-                s.camera_guides(cam, per_axis, threads, albedo.mutable_data(), normal.mutable_data());
+                s.camera_guides(cam, per_axis, threads, albedo.mutable_data(), normal.mutable_data(), r0, r1);
             }
             return py::make_tuple(albedo, normal);
-        }, py::arg("camera"), py::arg("per_axis") = 2, py::arg("threads") = 0,
+        }, py::arg("camera"), py::arg("per_axis") = 2, py::arg("threads") = 0, py::arg("rows") = py::none(),
            "Denoising guides of a camera, (albedo (H, W, bands), normal (H, W, 3)) float32, from "
-           "per_axis^2 fixed sub-pixel rays per pixel (Scene::camera_guides).")
+           "per_axis^2 fixed sub-pixel rays per pixel (Scene::camera_guides); rows = (first, end): "
+           "only those rows.")
         .def("render_radiometer", [](const Scene& s, int rad, uint64_t start, uint64_t count, int threads, py::object out,
                                      py::object moments) {
             int nbins = s.radiometers.at(rad).bins();

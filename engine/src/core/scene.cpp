@@ -232,6 +232,9 @@ Hit Scene::intersect(const Vec3& o, const Vec3& d, double tmax) const {
         hit.ns = hit.n;
         hit.kind = m.kind;
         hit.index = m.index;
+        hit.prim = int(rh.hit.primID);
+        hit.bu = rh.hit.u;
+        hit.bv = rh.hit.v;
         if (!m.corner_normals.empty()) {  // a water boundary: its smooth shading normal
             const float* c = &m.corner_normals[9 * size_t(rh.hit.primID)];
             const double u = rh.hit.u, v = rh.hit.v, w0 = 1.0 - u - v;
@@ -346,18 +349,62 @@ Spectrum Scene::sky_radiance(const Vec3& d) const {
     if (sky_type == 0) return s;
     if (d.z <= 0.0 && !sky_full_sphere) return s;
     double f = sky_type == 2 ? (1.0 + 2.0 * d.z) : 1.0;
-    if (sky_type == 3) {
+    if (sky_type == 3 || sky_type == 4) {
         double th = std::acos(std::clamp(d.z, 0.0, 1.0)) / (0.5 * kPi) * (sky_nt - 1);
         double ph = std::atan2(d.y, d.x);
         if (ph < 0) ph += 2.0 * kPi;
         ph = ph / (2.0 * kPi) * sky_np;
         int i0 = std::min(sky_nt - 2, int(th)), j0 = int(ph) % sky_np, j1 = (j0 + 1) % sky_np;
         double ft = th - i0, fp = ph - std::floor(ph);
-        auto T = [&](int i, int j) { return sky_table[size_t(i) * sky_np + j]; };
-        f = (1 - ft) * ((1 - fp) * T(i0, j0) + fp * T(i0, j1)) + ft * ((1 - fp) * T(i0 + 1, j0) + fp * T(i0 + 1, j1));
+        const int nv = sky_type == 4 ? nbands : 1;
+        auto T = [&](int i, int j, int k) { return sky_table[(size_t(i) * sky_np + j) * nv + k]; };
+        for (int k = 0; k < nv; ++k) {
+            s.v[k] = (1 - ft) * ((1 - fp) * T(i0, j0, k) + fp * T(i0, j1, k))
+                     + ft * ((1 - fp) * T(i0 + 1, j0, k) + fp * T(i0 + 1, j1, k));
+        }
+        f = s.v[0];
+        if (sky_type == 4) {
+            for (int k = 0; k < nbands; ++k) s.v[k] *= sky_l0.v[k];
+            return s;
+        }
     }
     for (int k = 0; k < nbands; ++k) s.v[k] = sky_l0.v[k] * f;
     return s;
+}
+
+Material Scene::surface_at(const Hit& h) const {
+    Material m = materials[h.index];
+    if (m.texture < 0 || h.id < 0) return m;
+    const MeshRecord& r = meshes[h.id];
+    if (r.corner_uv.empty() || h.prim < 0) return m;
+    const Texture& tex = textures[m.texture];
+    const float* c = &r.corner_uv[6 * size_t(h.prim)];
+    const double w0 = 1.0 - h.bu - h.bv;
+    double u = w0 * c[0] + h.bu * c[2] + h.bv * c[4];
+    double v = w0 * c[1] + h.bu * c[3] + h.bv * c[5];
+    // Texel centres at (i + 0.5) / size; bilinear between the four around (u, v).
+    double x = u * tex.width - 0.5, y = v * tex.height - 0.5;
+    if (!std::isfinite(x) || !std::isfinite(y)) return m;
+    const double fx = std::floor(x), fy = std::floor(y);
+    const double ax = x - fx, ay = y - fy;
+    auto wrap = [&](long long i, int n) {
+        if (tex.clamp) return int(std::clamp<long long>(i, 0, n - 1));
+        long long r2 = i % n;
+        return int(r2 < 0 ? r2 + n : r2);
+    };
+    const int x0 = wrap((long long)fx, tex.width), x1 = wrap((long long)fx + 1, tex.width);
+    const int y0 = wrap((long long)fy, tex.height), y1 = wrap((long long)fy + 1, tex.height);
+    const int nb = nbands;
+    auto T = [&](int yy, int xx, int k) { return double(tex.texels[(size_t(yy) * tex.width + xx) * nb + k]); };
+    if (tex.closest) {
+        const int xn = ax < 0.5 ? x0 : x1, yn = ay < 0.5 ? y0 : y1;
+        for (int k = 0; k < nb; ++k) m.reflectance.v[k] = T(yn, xn, k);
+        return m;
+    }
+    for (int k = 0; k < nb; ++k)
+        m.reflectance.v[k] = (1 - ay) * ((1 - ax) * T(y0, x0, k) + ax * T(y0, x1, k))
+                             + ay * ((1 - ax) * T(y1, x0, k) + ax * T(y1, x1, k));
+    return m;
 }
 
 Vec3 Scene::sample_sun(double u1, double u2) const {

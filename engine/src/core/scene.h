@@ -35,8 +35,20 @@ constexpr double kBeamGuide = 0.25;
 // is the heavy tail the guide exists to remove).
 constexpr double kGuidedWeightScale = 2.0;
 
-struct Material {  // Lambertian
-    Spectrum reflectance;
+struct Material {  // Lambertian, optionally textured and emitting
+    Spectrum reflectance;  // (textured: the texture's mean, for what has no texture coordinates)
+    Spectrum emission;     // radiance it emits from both faces (W m^-2 sr^-1 per band unit)
+    bool emits = false;
+    int texture = -1;      // Scene::textures index, or -1
+};
+
+// A reflectance texture: nbands values per texel, rows from v = 0 (bottom) up, columns from
+// u = 0; bilinear (or the nearest texel), repeating (or clamped at the edges).
+struct Texture {
+    int width = 0, height = 0;
+    bool clamp = false;
+    bool closest = false;       // the nearest texel instead of bilinear
+    std::vector<float> texels;  // (height, width, nbands)
 };
 
 enum class SurfaceKind : int { kOpaque = 0, kWaterBoundary = 1 };
@@ -52,6 +64,8 @@ struct MeshRecord {  // one Embree geometry of the main scene
     // continuously (beams and paths alike) while the sharp edges of a box stay sharp. Made at
     // commit (smooth_corner_normals).
     std::vector<float> corner_normals;
+    // An opaque mesh's texture coordinates at each triangle's corners (6 per triangle), or none.
+    std::vector<float> corner_uv;
 };
 void smooth_corner_normals(MeshRecord* m);
 
@@ -63,6 +77,8 @@ struct Hit {
     Vec3 ns;              // shading normal: the interpolated exact normals of a wave patch, else n
     SurfaceKind kind = SurfaceKind::kOpaque;
     int index = -1;
+    int prim = -1;        // triangle of the mesh hit (Embree primID), -1 for the ocean's
+    double bu = 0.0, bv = 0.0;  // its barycentric coordinates there
 };
 
 enum class Quantity : int {
@@ -156,6 +172,7 @@ public:
     // --- building ---------------------------------------------------------------
     int nbands = 1;
     std::vector<Material> materials;
+    std::vector<Texture> textures;
     std::vector<PhaseFunction> phases;
     std::vector<Water> waters;
     std::vector<MeshRecord> meshes;
@@ -184,9 +201,10 @@ public:
     double sun_cos_half = 1.0;       // cosine of angular radius
     Spectrum sun_radiance;           // uniform disk radiance
 
-    int sky_type = 0;                // 0 black, 1 uniform, 2 cardioidal, 3 tabulated
+    int sky_type = 0;                // 0 black, 1 uniform, 2 cardioidal, 3 tabulated, 4 tabulated per band
     // Tabulated sky (type 3): relative radiance on nodes theta_i = i/(nt-1) 90 deg (zenith
     // angle) x phi_j = j/np 360 deg (azimuth from +x towards +y, periodic), bilinear.
+    // Type 4: the same nodes with nbands values each (an environment map), times L0.
     std::vector<double> sky_table;
     int sky_nt = 0, sky_np = 0;
     bool sky_full_sphere = false;    // uniform radiance below the horizon too (furnace tests)
@@ -259,6 +277,8 @@ public:
 
     // --- light ------------------------------------------------------------------
     Spectrum sky_radiance(const Vec3& d) const;
+    // The opaque surface at a hit: its material with the reflectance of its texture there.
+    Material surface_at(const Hit& h) const;
     bool in_sun(const Vec3& d) const { return has_sun && dot(d, sun_dir) >= sun_cos_half; }
     Vec3 sample_sun(double u1, double u2) const;
     double sun_pdf() const { return 1.0 / (2.0 * kPi * (1.0 - sun_cos_half)); }
@@ -317,7 +337,9 @@ public:
     // boundaries, along their more likely way), plus what that water scatters (its optical
     // depths' single-scattering albedo times 1 - transmittance); normal (height x width x 3):
     // that surface's world normal facing the camera, weighted by the light that reaches it.
-    void camera_guides(int cam, int per_axis, int threads, float* albedo, float* normal) const;
+    // Rows [row0, row1) only (row1 < 0: to the last); albedo and normal then hold those rows.
+    void camera_guides(int cam, int per_axis, int threads, float* albedo, float* normal, int row0 = 0,
+                       int row1 = -1) const;
     // Sums over samples [start, start + count) per bin, component and band (chunked, fixed order).
     // moments (optional): per bin and band, the total's central sums of powers 2, 3 and 4 about
     // the pass's own mean, moments[(bin * 3 + (power - 2)) * nbands + band]: the tails of the

@@ -14,7 +14,7 @@ from .scene import IOPGrid, IOPProfile, Scene
 
 QUANTITY_CODES = {"Ed": 0, "Eu": 1, "Eo": 2, "Eod": 3, "Eou": 4,
                   "radiance": 5, "radiance_distribution": 6}
-SKY_CODES = {"black": 0, "uniform": 1, "cardioidal": 2, "harrison_coombes": 3}
+SKY_CODES = {"black": 0, "uniform": 1, "cardioidal": 2, "harrison_coombes": 3, "environment": 4}
 MAX_BANDS = int(_core.MAX_BANDS)
 
 
@@ -108,7 +108,13 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
 
     mat_index = {}
     for name, mat in scene.materials.items():
-        mat_index[name] = core.add_material(sel(mat.reflectance))
+        mi = mat_index[name] = core.add_material(sel(mat.reflectance))
+        if mat.emission is not None:
+            core.set_material_emission(mi, sel(mat.emission))
+        if mat.texture is not None:
+            img = np.asarray(mat.texture.image, np.float32)[:, :, bands]
+            core.set_material_texture(mi, np.ascontiguousarray(img), mat.texture.wrap == "clamp",
+                                      mat.texture.interpolation == "closest")
 
     water_index = {}
     for w in scene.water:
@@ -140,8 +146,10 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
         water_index[w.name] = wi
 
     for m in scene.meshes:
-        core.add_mesh(np.asarray(m.mesh.vertices, np.float32), np.asarray(m.mesh.triangles, np.uint32),
-                      0, mat_index[m.material])
+        gi = core.add_mesh(np.asarray(m.mesh.vertices, np.float32), np.asarray(m.mesh.triangles, np.uint32),
+                           0, mat_index[m.material])
+        if m.uv is not None and scene.materials[m.material].texture is not None:
+            core.set_mesh_uv(gi, np.ascontiguousarray(m.uv, np.float32))
 
     for w in scene.water:
         wi = water_index[w.name]
@@ -176,6 +184,8 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
     sky = scene.sky
     l0 = sel(sky.radiance_scale) if sky.radiance_scale is not None else np.zeros(nb)
     core.set_sky(SKY_CODES[sky.type], l0, bool(getattr(sky, "full_sphere", False)))
+    if sky.type == "environment":
+        core.set_sky_table_bands(np.ascontiguousarray(np.asarray(sky.table, np.float64)[:, :, bands]))
     if sky.type == "harrison_coombes":
         from .sky import sky_table
         core.set_sky_table(sky_table(scene.sun.zenith_deg, scene.sun.azimuth_deg, sky.cloud_fraction))

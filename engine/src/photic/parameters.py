@@ -109,6 +109,8 @@ PARAMETERS: dict[str, Parameter] = {p.key: p for p in [
     Parameter("band.width_nm", "nm", 10.0, 0.001, 1000.0, "width of a band"),
     Parameter("material.reflectance", "", None, 0.0, 1.0, "Lambertian reflectance (albedo)",
        shape=PER_BAND),
+    Parameter("material.emission", "W m^-2 sr^-1 (per nm)", None, 0.0, MAX_SOURCE,
+       "radiance a surface emits", shape=PER_BAND),
     # water and its optical properties
     Parameter("water.ior", "", 1.34, 1.0, 2.0, "refractive index of the water relative to air"),
     Parameter("iops.absorption", "m^-1", None, 0.0, None, "absorption coefficient a",

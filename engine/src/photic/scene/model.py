@@ -27,14 +27,41 @@ class Band(_ArrayEq):
 
 
 @dataclass(eq=False)
+class MaterialTexture(_ArrayEq):
+    """A reflectance texture: ``image`` (height, width, bands) in [0, 1], row 0 at texture
+    coordinate v = 0 (the bottom), column 0 at u = 0; looked up bilinearly at the texture
+    coordinates of the meshes that use the material (``MeshObject.uv``), repeating beyond
+    [0, 1] (``wrap`` ``"repeat"``) or holding the edge texels (``"clamp"``); ``interpolation``
+    ``"closest"`` takes the nearest texel instead."""
+
+    image: np.ndarray
+    wrap: str = "repeat"
+    interpolation: str = "linear"
+
+    def __post_init__(self):
+        if not isinstance(self.image, np.ndarray) or self.image.dtype != np.float32:
+            try:
+                self.image = np.asarray(self.image, dtype=np.float32)
+            except (TypeError, ValueError):
+                pass
+
+
+@dataclass(eq=False)
 class Material(_ArrayEq):
-    """A Lambertian material: reflectance per band in [0, 1]."""
+    """A Lambertian material: reflectance per band in [0, 1]; with a ``texture`` the
+    reflectance varies over the surface (``reflectance`` is then the texture's mean, used where
+    a mesh has no texture coordinates). ``emission``: radiance the surface emits from both
+    faces per band (W m^-2 sr^-1 per unit of the band's spectrum), or None."""
 
     name: str
     reflectance: np.ndarray
+    emission: np.ndarray | None = None
+    texture: MaterialTexture | None = None
 
     def __post_init__(self):
         self.reflectance = _as_floats(self.reflectance)
+        if self.emission is not None:
+            self.emission = _as_floats(self.emission)
 
 
 @dataclass(eq=False)
@@ -242,11 +269,20 @@ class TriangleMesh(_ArrayEq):
 
 @dataclass(eq=False)
 class MeshObject(_ArrayEq):
-    """An opaque object: a mesh and the name of its material."""
+    """An opaque object: a mesh and the name of its material; ``uv``: texture coordinates
+    (triangles, 3, 2) at each triangle's corners, for a textured material (None: none)."""
 
     name: str
     mesh: TriangleMesh
     material: str
+    uv: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.uv is not None and not (isinstance(self.uv, np.ndarray) and self.uv.dtype == np.float32):
+            try:
+                self.uv = np.asarray(self.uv, dtype=np.float32)
+            except (TypeError, ValueError):
+                pass
 
 
 @dataclass(eq=False)
@@ -367,16 +403,22 @@ class Sky(_ArrayEq):
     """The sky over the upper hemisphere.
 
     ``radiance_scale`` is L0 per band: ``uniform`` has L = L0; ``cardioidal`` has
-    L(theta) = L0 (1 + 2 cos theta), theta the zenith angle; ``black`` has None.
+    L(theta) = L0 (1 + 2 cos theta), theta the zenith angle; ``environment`` has
+    L = L0 table(theta, phi) per band, ``table`` (n_theta, n_phi, bands) on the nodes
+    theta_i = i / (n_theta - 1) 90 deg and phi_j = j / n_phi 360 deg (azimuth from +x towards
+    +y), interpolated bilinearly (an environment map's upper half); ``black`` has None.
     """
 
     type: str
     radiance_scale: np.ndarray | None = None
     full_sphere: bool = False  # uniform only: radiance L0 below the horizon too (furnace tests)
     cloud_fraction: float = 0.0  # harrison_coombes only: 0 clear .. 1 overcast
+    table: np.ndarray | None = None  # environment only: (n_theta, n_phi, bands) relative radiance
 
     def __post_init__(self):
         self.radiance_scale = _as_floats(self.radiance_scale)
+        if self.table is not None:
+            self.table = _as_floats(self.table)
 
 
 @dataclass(eq=False)

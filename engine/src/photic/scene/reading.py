@@ -15,7 +15,7 @@ from .checks import (
     _label, _show,
 )
 from .model import (
-    Band, Camera, GridField, IOPGrid, IOPProfile, IOPs, Material, MeshObject, OceanSurface,
+    Band, Camera, GridField, IOPGrid, IOPProfile, IOPs, Material, MaterialTexture, MeshObject, OceanSurface,
     PhaseFunction, Radiometer, RadiometerArray, ScatteringComponent, Scene, Settings, Sky,
     Sun, SurfaceRoughness, TriangleMesh, WaterBody, _default_bands,
 )
@@ -336,8 +336,33 @@ def _read_wave_model(s: dict) -> Any:
 
 
 
+def _array(label: str, fld: str, value: Any, dtype) -> np.ndarray:
+    try:
+        return np.array(value, dtype=dtype)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise SceneError(label, fld, f"must be a nested list of numbers ({exc})") from None
+
+
+def _read_material(name: str, m: dict, nbands: int) -> Material:
+    label = f"material '{name}'"
+    emission = _per_band(label, "emission", m["emission"], nbands) if "emission" in m else None
+    texture = None
+    if "texture" in m:
+        t = m["texture"]
+        texture = MaterialTexture(_array(label, "texture.image", t["image"], np.float32),
+                                  t.get("wrap", "repeat"), t.get("interpolation", "linear"))
+    return Material(name, _per_band(label, "reflectance", m["reflectance"], nbands), emission, texture)
+
+
 def _read_sky(d: dict, nbands: int) -> Sky:
     kind = d["type"]
+    if kind == "environment":
+        _only_for("sky", d, ("irradiance", "full_sphere", "cloud_fraction"), "other sky types")
+        scale = (_per_band("sky", "radiance", d["radiance"], nbands) if "radiance" in d
+                 else np.ones(nbands))
+        return Sky(kind, scale, table=_array("sky", "table", d["table"], np.float64))
+    if "table" in d:
+        raise SceneError("sky", "table", "only for sky type 'environment'")
     if kind == "black":
         _only_for("sky", d, ("radiance", "irradiance", "full_sphere"), "sky types 'uniform' and 'cardioidal'")
         return Sky("black")
@@ -406,13 +431,12 @@ def _build_scene(d: dict, base_dir: Path) -> Scene:
     bands = [Band(b["name"], float(b["center_nm"]), float(b["width_nm"]))
              for b in d.get("bands", [])] or _default_bands()
     nb = len(bands)
-    materials = {name: Material(name, _per_band(f"material '{name}'", "reflectance",
-                                                m["reflectance"], nb))
-                 for name, m in d.get("materials", {}).items()}
+    materials = {name: _read_material(name, m, nb) for name, m in d.get("materials", {}).items()}
     meshes = []
     for i, m in enumerate(d.get("meshes", [])):
         label = _label("mesh", m["name"], i)
-        meshes.append(MeshObject(m["name"], _read_mesh(label, m, base_dir), m["material"]))
+        uv = _array(label, "uv", m["uv"], np.float32) if "uv" in m else None
+        meshes.append(MeshObject(m["name"], _read_mesh(label, m, base_dir), m["material"], uv))
     water = [_read_water(_label("water", w["name"], i), w, bands, base_dir)
              for i, w in enumerate(d.get("water", []))]
     sun = None

@@ -17,7 +17,7 @@ from .checks import (
     _check_real, _check_vec3, _entries, _label, _num, _show,
 )
 from .model import (
-    Band, Camera, GridField, IOPGrid, IOPProfile, IOPs, MAX_GRID_FIELDS, Material,
+    Band, Camera, GridField, IOPGrid, IOPProfile, IOPs, MAX_GRID_FIELDS, Material, MaterialTexture, MeshObject,
     OceanSurface, PhaseFunction, Radiometer, RadiometerArray, ScatteringComponent, Scene,
     Settings, Sky, Sun, SurfaceRoughness, TriangleMesh, WaterBody,
 )
@@ -45,6 +45,8 @@ def _validate_scene(s: Scene) -> None:
         label = _check_name("mesh", i, obj.name, seen)
         _check_mesh(label, "", obj.mesh)
         _check_material_ref(label, "material", obj.material, s.materials)
+        if obj.uv is not None:
+            _check_uv(label, obj)
 
     seen = {}
     ocean = None
@@ -166,6 +168,32 @@ def _validate_material(key: Any, material: Material, nbands: int) -> None:
         raise SceneError(label, "name", f"is {_show(material.name)} but the material is stored "
                                         f"under the key '{key}'")
     check_per_band_parameter(label, "material.reflectance", material.reflectance, nbands)
+    if material.emission is not None:
+        check_per_band_parameter(label, "material.emission", material.emission, nbands, "emission")
+    tex = material.texture
+    if tex is not None:
+        if not isinstance(tex, MaterialTexture):
+            raise SceneError(label, "texture", "must be a MaterialTexture")
+        img = tex.image
+        if not isinstance(img, np.ndarray) or img.ndim != 3 or img.shape[2] != nbands or \
+                img.shape[0] < 1 or img.shape[1] < 1:
+            raise SceneError(label, "texture.image", f"must be an array (height, width, {nbands}) of "
+                                                     f"reflectances, one per band, got "
+                                                     f"{getattr(img, 'shape', _show(img))}")
+        if not np.all(np.isfinite(img)) or img.min() < 0 or img.max() > 1:
+            raise SceneError(label, "texture.image", "reflectances must be finite and in [0, 1]")
+        _check_choice(label, "texture.wrap", tex.wrap, ("repeat", "clamp"))
+        _check_choice(label, "texture.interpolation", tex.interpolation, ("linear", "closest"))
+
+
+def _check_uv(label: str, obj: MeshObject) -> None:
+    uv = obj.uv
+    ntri = len(obj.mesh.triangles) if hasattr(obj.mesh.triangles, "__len__") else -1
+    if not isinstance(uv, np.ndarray) or uv.shape != (ntri, 3, 2):
+        raise SceneError(label, "uv", f"must be an array (triangles = {ntri}, 3, 2) of texture "
+                                      f"coordinates, got {getattr(uv, 'shape', _show(uv))}")
+    if not np.all(np.isfinite(uv)):
+        raise SceneError(label, "uv", "texture coordinates must be finite")
 
 
 def _check_material_ref(label: str, fld: str, name: Any, materials: dict) -> None:
@@ -593,6 +621,16 @@ def _validate_sky(sky: Any, nbands: int) -> None:
             raise SceneError("sky", "radiance_scale", "must be None for a black sky")
         return
     check_per_band_parameter("sky", "sky.radiance", sky.radiance_scale, nbands, "radiance_scale")
+    if (sky.table is not None) != (sky.type == "environment"):
+        raise SceneError("sky", "table", "an 'environment' sky needs a table, and only it has one")
+    if sky.type == "environment":
+        t = sky.table
+        if not isinstance(t, np.ndarray) or t.ndim != 3 or t.shape[0] < 2 or t.shape[1] < 1 or \
+                t.shape[2] != nbands:
+            raise SceneError("sky", "table", f"must be an array (n_theta >= 2, n_phi >= 1, {nbands}) "
+                                             f"of relative radiances, got {getattr(t, 'shape', _show(t))}")
+        if not np.all(np.isfinite(t)) or t.min() < 0:
+            raise SceneError("sky", "table", "relative radiances must be finite and >= 0")
     check_parameter("sky", "sky.cloud_fraction", sky.cloud_fraction)
     if sky.cloud_fraction and sky.type != "harrison_coombes":
         raise SceneError("sky", "cloud_fraction", "only for sky type 'harrison_coombes'")

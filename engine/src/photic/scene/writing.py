@@ -25,6 +25,16 @@ def _mesh_to_dict(mesh: TriangleMesh) -> dict:
     return {"vertices": _list(mesh.vertices), "triangles": _list(mesh.triangles)}
 
 
+def _material_to_dict(m) -> dict:
+    d: dict[str, Any] = {"type": "lambertian", "reflectance": _list(m.reflectance)}
+    if m.emission is not None:
+        d["emission"] = _list(m.emission)
+    if m.texture is not None:
+        d["texture"] = {"image": _list(m.texture.image), "wrap": m.texture.wrap,
+                        "interpolation": m.texture.interpolation}
+    return d
+
+
 def _phase_to_dict(p: PhaseFunction) -> dict:
     return {"type": p.type, **{k: float(v) for k, v in p.params.items()}}
 
@@ -94,6 +104,8 @@ def _scene_to_dict(s: Scene) -> dict:
         sky["full_sphere"] = True
     if s.sky.cloud_fraction:
         sky["cloud_fraction"] = float(s.sky.cloud_fraction)
+    if s.sky.table is not None:
+        sky["table"] = _list(s.sky.table)
     arrays = []
     for a in s.radiometer_arrays:
         item: dict[str, Any] = {"name": a.name, "quantities": list(a.quantities),
@@ -108,9 +120,9 @@ def _scene_to_dict(s: Scene) -> dict:
         "name": s.name,
         "bands": [{"name": b.name, "center_nm": float(b.center_nm), "width_nm": float(b.width_nm)}
                   for b in s.bands],
-        "materials": {k: {"type": "lambertian", "reflectance": _list(m.reflectance)}
-                      for k, m in s.materials.items()},
-        "meshes": [{"name": m.name, "material": m.material, **_mesh_to_dict(m.mesh)}
+        "materials": {k: _material_to_dict(m) for k, m in s.materials.items()},
+        "meshes": [{"name": m.name, "material": m.material, **_mesh_to_dict(m.mesh),
+                    **({} if m.uv is None else {"uv": _list(m.uv)})}
                    for m in s.meshes],
         "water": [_water_to_dict(w) for w in s.water],
         "sun": None if s.sun is None else {
