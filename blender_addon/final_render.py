@@ -82,11 +82,70 @@ def write_rows(render_pass, rows: np.ndarray) -> None:
             return
         except (TypeError, ValueError, RuntimeError):
             pass
+    if _copy_into_pass(render_pass, rows):
+        return
     rows = rows.copy()  # (an assignment may keep the array: the caller's buffer changes)
     try:
         render_pass.rect = rows.ravel()
     except (TypeError, ValueError):
         render_pass.rect = rows
+
+
+#: How much lower the priority of the engine's threads is than Blender's interface, in a Blender
+#: with a window (Linux nice steps; 0: the same). Blender draws the render view and sees Esc on
+#: its main thread; where the screen is drawn by the CPU too (software OpenGL, a virtual
+#: machine) a render on every core starved it: Esc waited seconds for a redraw to finish.
+RENDER_NICE = 4
+
+
+def lower_priority() -> None:
+    """Lower the calling thread's priority by RENDER_NICE (the threads it starts inherit it),
+    when Blender has a window; nothing in background renders or where it is not supported."""
+    import os
+    try:
+        import bpy
+        if RENDER_NICE <= 0 or bpy.app.background or not hasattr(os, "setpriority"):
+            return
+        tid = threading.get_native_id()
+        os.setpriority(os.PRIO_PROCESS, tid, os.getpriority(os.PRIO_PROCESS, tid) + RENDER_NICE)
+    except Exception:  # noqa: BLE001  (a priority is a nicety)
+        pass
+
+
+# Blender 3.x's RenderPass (source/blender/render/RE_pipeline.h): next, prev, channels at 16,
+# name[64] at 20, chan_id[8], the float *rect at 96, rectx and recty at 104 and 108.
+_PASS_LAYOUT = {"channels": 16, "name": 20, "rect": 96, "rectx": 104, "recty": 108}
+
+
+def _copy_into_pass(render_pass, rows: np.ndarray) -> bool:
+    """Copy (H*W, C) float32 pixels straight into a Blender 3.x render pass's buffer; whether
+    it was done. Blender 3.x's ``rect.foreach_set`` takes the first dimension of the (H*W, C)
+    array for its size and fails, and the assignment that remains converts pixel by pixel
+    through Python sequences holding the interpreter lock (1.5 s at 1920 x 1080, during which
+    Blender's interface, which draws with Python, cannot even see Esc). The pass's fields are
+    checked against its RNA values first (channels, name, size): any other layout is left to
+    the assignment."""
+    import ctypes
+    try:
+        import bpy
+        if bpy.app.version >= (4, 0, 0) or not hasattr(render_pass, "as_pointer"):
+            return False
+        ptr = render_pass.as_pointer()
+        lay = _PASS_LAYOUT
+        channels = ctypes.c_int.from_address(ptr + lay["channels"]).value
+        name = ctypes.string_at(ptr + lay["name"], 64).split(b"\0")[0].decode("utf-8", "replace")
+        rectx = ctypes.c_int.from_address(ptr + lay["rectx"]).value
+        recty = ctypes.c_int.from_address(ptr + lay["recty"]).value
+        rect = ctypes.c_void_p.from_address(ptr + lay["rect"]).value
+        if (channels != render_pass.channels or name != render_pass.name or not rect
+                or rows.dtype != np.float32 or rows.size != rectx * recty * channels
+                or rows.shape[-1] != channels):
+            return False
+        rows = np.ascontiguousarray(rows)
+        ctypes.memmove(rect, rows.ctypes.data, rows.nbytes)
+        return True
+    except Exception:  # noqa: BLE001  (any doubt: the slow, safe assignment)
+        return False
 
 
 class DisplayStream:
@@ -99,6 +158,7 @@ class DisplayStream:
     about 5 %) but at most MAX_INTERVAL_S."""
 
     MIN_INTERVAL_S, MAX_INTERVAL_S = 0.25, 0.5
+    FIRST_INTERVAL_S = 0.03  # until the first piece has come
     ERROR_INTERVAL_S = 2.0
     ERROR_STRIDE = 8  # the noise figure from every 8th row and column (32k pixels at 1080p)
     BLOCK_ROWS = 64  # rows converted at a time: small temporaries, the engine's lock held briefly
@@ -119,11 +179,13 @@ class DisplayStream:
         self._thread.start()
 
     def _loop(self) -> None:
-        interval, last_error = self.MIN_INTERVAL_S, -1e9
+        interval, last_error = self.FIRST_INTERVAL_S, -1e9
         while not self._stop.wait(interval):
             try:
                 t0 = time.perf_counter()
                 if not self._refresh():
+                    if self._version < 0:
+                        interval = self.FIRST_INTERVAL_S  # (the first pixels: looked for often)
                     continue
                 if t0 - last_error >= self.ERROR_INTERVAL_S or (self.error is None and self.samples >= 2):
                     snap = self.renderer.snapshot(self.camera, stride=self.ERROR_STRIDE)
@@ -566,7 +628,7 @@ class FinalRender:
         recorded and final_image() (when not None) written into the render result; without one,
         after Esc, cancelled_rows() (when given and not None) as its Combined pass."""
         engine = self.engine
-        thread = threading.Thread(target=work, name=name, daemon=True)
+        thread = threading.Thread(target=lambda: (lower_priority(), work()), name=name, daemon=True)
         result = engine.begin_result(0, 0, *size)
         cancel_at = None
         try:

@@ -2,7 +2,10 @@
 
 The scene is exported again when the depsgraph reports an edit, and the render restarts when
 the scene or the view changes; the engine thread is cancelled first, so it never outlives an
-edit. Until the first pass arrives the previous image stays on screen.
+edit. A coarse first image (a quarter of the resolution in each direction, one sample per
+pixel, the same beams' kind: a few tenths of a second) comes first and stays until the first
+full-resolution pass covers the whole view, then the passes sharpen it; until the coarse image
+arrives the previous image stays on screen.
 """
 from __future__ import annotations
 
@@ -48,15 +51,21 @@ class ViewportRender:
         self.texture = None
         self.texture_samples = -1  # the most samples a pixel of the texture has
         self.texture_version = -1  # the renderer's version of the sums the texture shows
-        self.final = None          # {"result": the finished render's result} of the running render
+        self.final = None          # {"result": ..., "preview": ...} of the running render
         self.bands = None
+        self.preview = None        # the coarse first image's Renderer, while it matters
+        self.full_shown = False    # whether the texture shows the full-resolution render
+
+    PREVIEW_FACTOR = 4          # the coarse first image: this much smaller in each direction
+    PREVIEW_MIN_PIXELS = 40_000  # ... for views larger than this (smaller ones are quick anyway)
 
     def stop(self) -> None:
-        if self.renderer is not None:
-            self.renderer.cancel()
+        for r in (self.preview, self.renderer):
+            if r is not None:
+                r.cancel()
         if self.thread is not None:
             self.thread.join()
-        self.renderer = self.thread = None
+        self.renderer = self.thread = self.preview = None
 
     def update(self, context, depsgraph) -> None:
         """The scene changed: render again at the next draw."""
@@ -81,14 +90,24 @@ class ViewportRender:
         self.bands = [(b.name, b.center_nm, b.width_nm) for b in scene.bands]
         try:
             self.renderer = photic.render.Renderer(scene)
+            self.preview = (photic.render.Renderer(coarse_scene(scene, self.PREVIEW_FACTOR), samples=1)
+                            if width * height > self.PREVIEW_MIN_PIXELS else None)
         except photic.scene.SceneError as exc:
             self.message = str(exc)
             return
+        self.full_shown = False
 
         holder = self.final = {}
 
-        def work(renderer=self.renderer):
+        def work(renderer=self.renderer, preview=self.preview):
+            from .final_render import lower_priority
+            lower_priority()  # (the interface draws this viewport: it must not starve)
             try:
+                if preview is not None:
+                    first = preview.run()
+                    if first.cancelled:
+                        return
+                    holder["preview"] = first
                 holder["result"] = renderer.run()
             except Exception:
                 traceback.print_exc()
@@ -98,20 +117,35 @@ class ViewportRender:
 
     FINISHED = 1 << 62  # the texture's version once it shows the finished render's image
 
+    PREVIEW = -2  # the texture's version while it shows the coarse first image
+
     def _next_frame(self, renderer, height: int):
-        """(display rows bottom first, version, samples) of what the texture does not show yet,
-        or None: the running sums while they change, then the finished render's image, which
-        holds the last pieces the sums, spent by then, no longer show."""
+        """(display rows bottom first, (width, height), version, samples) of what the texture
+        does not show yet, or None: the coarse first image, then the running sums once the
+        first pass covers the whole view and while they change, then the finished render's
+        image, which holds the last pieces the sums, spent by then, no longer show."""
         changed = renderer.changed_rows("viewport", self.texture_version)
+        if changed is not None and not self.full_shown:
+            rendered = renderer.changed_rows("viewport", -1)  # (the rows rendered so far)
+            if rendered is None or rendered[0] != 0 or rendered[1] < height:
+                changed = None  # the first pass is still on its way down the view
         got = renderer.total_sums("viewport", rows=(0, height)) if changed is not None else None
         if got is not None:
-            return bandmod.total_to_rows(got.total, got.n, self.bands), changed[2], int(np.max(got.n))
+            h, w = got.total.shape[:2]
+            return bandmod.total_to_rows(got.total, got.n, self.bands), (w, h), changed[2], int(np.max(got.n))
         done = self.final.get("result") if self.final is not None else None
-        if done is None or "viewport" not in done.images:
-            return None
-        self.final = None
-        img = done.images["viewport"]
-        return bandmod.bands_to_rgba(img.mean, self.bands)[::-1].reshape(-1, 4), self.FINISHED, img.samples
+        if done is not None and "viewport" in done.images:
+            self.final = None
+            img = done.images["viewport"]
+            h, w = img.mean.shape[:2]
+            return (bandmod.bands_to_rgba(img.mean, self.bands)[::-1].reshape(-1, 4), (w, h),
+                    self.FINISHED, img.samples)
+        first = self.final.get("preview") if self.final is not None else None
+        if first is not None and not self.full_shown and self.texture_version != self.PREVIEW:
+            img = first.images["viewport"]
+            h, w = img.mean.shape[:2]
+            return bandmod.bands_to_rgba(img.mean, self.bands)[::-1].reshape(-1, 4), (w, h), self.PREVIEW, 0
+        return None
 
     def draw(self, engine, context, depsgraph) -> None:
         import gpu
@@ -133,18 +167,21 @@ class ViewportRender:
         if renderer is not None:
             frame = self._next_frame(renderer, height)
             if frame is not None:
-                rows, version, samples = frame
+                rows, size, version, samples = frame
+                self.full_shown = self.full_shown or version != self.PREVIEW
                 scene = depsgraph.scene_eval
                 if scene.photic.auto_exposure:  # display only: the net exposure is the image's
                     stops = bandmod.auto_exposure(rows)
                     if stops is not None:
                         rows[:, :3] *= 2.0 ** (stops - scene.view_settings.exposure)
                 buf = gpu.types.Buffer("FLOAT", rows.size, rows.ravel())
-                self.texture = gpu.types.GPUTexture((width, height), format="RGBA16F", data=buf)
+                self.texture = gpu.types.GPUTexture(size, format="RGBA16F", data=buf)
                 self.texture_version, self.texture_samples = version, samples
-                engine.update_stats("", f"Photic: sample {samples}/{renderer.samples}")
+                engine.update_stats("", f"Photic: sample {samples}/{renderer.samples}" if samples
+                                    else "Photic: first image (coarse)")
             if (self.thread is not None and self.thread.is_alive()) or \
-                    (self.final is not None and self.final.get("result") is not None):
+                    (self.final is not None and (self.final.get("result") is not None
+                                                 or self.final.get("preview") is not None)):
                 engine.tag_redraw()  # (until the finished render's image is shown)
         if self.texture is not None:
             gpu.state.blend_set("ALPHA_PREMULT")
@@ -152,3 +189,12 @@ class ViewportRender:
             draw_texture_2d(self.texture, (0, 0), region.width, region.height)
             engine.unbind_display_space_shader()
             gpu.state.blend_set("NONE")
+
+
+def coarse_scene(scene, factor: int):
+    """The scene with its camera's resolution divided by ``factor`` (at least 1 x 1) and one
+    sample per pixel: the viewport's quick first image (the rest is shared, read only)."""
+    from dataclasses import replace
+    cams = [replace(c, resolution=(max(1, -(-c.resolution[0] // factor)), max(1, -(-c.resolution[1] // factor))))
+            for c in scene.cameras]
+    return replace(scene, cameras=cams, settings=replace(scene.settings, samples=1))

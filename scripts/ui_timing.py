@@ -163,6 +163,11 @@ def f12_runs():
                 keys.move(window.x + region.x + region.width // 2,
                           window.height - (region.y + region.height // 2))
                 state.update(phase="pressed", t=time.perf_counter(), esc=None, seen_job=False)
+                if os.environ.get("PHOTIC_UI_PERF"):  # where the main thread's time goes
+                    import subprocess
+                    subprocess.Popen(["perf", "record", "-t", str(os.getpid()), "-g", "-o",
+                                      os.environ["PHOTIC_UI_PERF"], "--", "sleep", "8"],
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
                 keys.press("F12")
                 return 0.005
             running = bpy.app.is_job_running("RENDER")
@@ -265,6 +270,12 @@ def watchdog():
             time.sleep(0.1)
             if time.perf_counter() - beat["t"] > 1.0 and time.perf_counter() - dumped > 2.0:
                 dumped = time.perf_counter()
+                if os.environ.get("PHOTIC_UI_GDB") == "1":  # the main thread's native stack
+                    import subprocess
+                    out = subprocess.run(["gdb", "-p", str(os.getpid()), "-batch", "-ex", "thread apply 1 bt 30"],
+                                         capture_output=True, text=True).stdout
+                    print("ui_timing: gdb main thread:\n" + "\n".join(
+                        l for l in out.splitlines() if l.startswith("#"))[:4000], flush=True)
                 frames = sys._current_frames()
                 print(f"ui_timing: main thread stalled {time.perf_counter() - beat['t']:.1f} s; threads:", flush=True)
                 for t in threading.enumerate():

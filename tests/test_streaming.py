@@ -150,6 +150,48 @@ def test_cancel_without_images_returns_at_once_and_keeps_the_sums(monkeypatch):
     assert out["res2"].cancelled and "floor" in out["res2"].images
 
 
+def test_denoising_guides_come_after_the_first_pixels_in_pieces_that_a_cancel_stops(monkeypatch):
+    """The guides (Renderer(guides=True)) no longer delay the first pixels: they follow the
+    passes, in bands of rows like a pass, and a cancel during them returns within a piece;
+    in pieces they are the guides of the whole image bit for bit."""
+    from photic import denoise
+    sc = floor_scene(5)
+    sc.cameras[0].resolution = (320, 240)
+    whole = render(sc, samples=1, threads=2, guides=True).images["floor"]
+    calls = []
+    real = denoise.guides
+
+    def spy(core, ci, threads=0, rows=None):
+        calls.append((time.perf_counter(), rows))
+        return real(core, ci, threads, rows)
+    monkeypatch.setattr(denoise, "guides", spy)
+    monkeypatch.setattr(render_mod, "GUIDE_FIRST_PIXELS", 320 * 16)
+    monkeypatch.setattr(render_mod, "CHUNK_SECONDS", 0.002)
+    r = Renderer(sc, samples=1, threads=2, guides=True)
+    first_pixels = []
+    res = r.run(progress=lambda f, text: first_pixels.append(time.perf_counter()))
+    assert len(calls) > 2 and all(c[1] is not None for c in calls)
+    assert calls[0][0] > first_pixels[0]  # after the first pass
+    rows = sorted(c[1] for c in calls)
+    assert rows[0][0] == 0 and rows[-1][1] == 240 and all(a[1] == b[0] for a, b in zip(rows, rows[1:]))
+    np.testing.assert_array_equal(res.images["floor"].albedo, whole.albedo)
+    np.testing.assert_array_equal(res.images["floor"].normal, whole.normal)
+    # Cancelled while the guides run: back after the piece running then.
+    calls.clear()
+    r = Renderer(sc, samples=1, threads=2, guides=True)
+    out = {}
+    t = threading.Thread(target=lambda: out.setdefault("res", r.run()))
+    t.start()
+    while not calls:
+        time.sleep(0.001)
+    t0 = time.perf_counter()
+    r.cancel()
+    t.join()
+    assert time.perf_counter() - t0 < 0.5
+    assert out["res"].cancelled and out["res"].images["floor"].albedo is None
+    assert len(calls) < 240 // 16
+
+
 # ------------------------------------------------------------------------------------------
 # Blender: the render view and the viewport
 # ------------------------------------------------------------------------------------------
@@ -348,5 +390,41 @@ def test_viewport_shows_the_finished_render_with_all_its_samples(empty, monkeypa
         last = eng.redraws
         vp.draw(eng, ctx, depsgraph)
         assert eng.redraws == last  # nothing more to show: no more redraws
+    finally:
+        vp.stop()
+
+
+def test_viewport_shows_a_coarse_first_image_then_the_full_resolution(empty, monkeypatch):
+    """A view larger than PREVIEW_MIN_PIXELS: the first texture is the coarse image (a quarter
+    of the render's size in each direction, lit and finite), then the full-resolution render
+    replaces it once its first pass covers the whole view; the coarse one is never shown again."""
+    made = _stub_gpu(monkeypatch)
+    _plume_like(empty, (32, 24), 1)
+    empty.photic.viewport_samples = 4
+    empty.photic.viewport_scale = 50
+    vp = viewport.ViewportRender()
+    eng = _ViewEngine()
+    ctx = _view_context(640, 480)  # 320 x 240 rendered: more than PREVIEW_MIN_PIXELS
+    assert 320 * 240 > viewport.ViewportRender.PREVIEW_MIN_PIXELS
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    try:
+        vp.update(ctx, depsgraph)
+        t0 = time.perf_counter()
+        while (not made or made[-1].size != (320, 240)) and time.perf_counter() - t0 < 60.0:
+            vp.draw(eng, ctx, depsgraph)
+            time.sleep(0.01)
+        sizes = [t.size for t in made]
+        assert sizes[0] == (80, 60), sizes
+        assert (320, 240) in sizes, sizes
+        first_full = sizes.index((320, 240))
+        assert all(s == (80, 60) for s in sizes[:first_full])
+        coarse = made[0].data.reshape(-1, 4)
+        assert np.isfinite(coarse).all() and coarse[:, :3].mean() > 0
+        assert any("coarse" in s for s in eng.stats)
+        vp.thread.join()
+        for _ in range(3):
+            vp.draw(eng, ctx, depsgraph)
+        assert all(t.size == (320, 240) for t in made[first_full:])
+        assert vp.texture_samples == 4
     finally:
         vp.stop()

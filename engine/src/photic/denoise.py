@@ -152,7 +152,9 @@ def denoise_bands(mean: np.ndarray, albedo: np.ndarray | None = None,
     return out
 
 
-def guides(core, camera_index: int, threads: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """(albedo (H, W, bands), normal (H, W, 3)) of a compiled scene's camera."""
-    a, n = core.camera_guides(camera_index, GUIDE_RAYS_PER_AXIS, threads)
+def guides(core, camera_index: int, threads: int = 0, rows: tuple[int, int] | None = None
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """(albedo (H, W, bands), normal (H, W, 3)) of a compiled scene's camera; ``rows``
+    (first, end): of those rows only."""
+    a, n = core.camera_guides(camera_index, GUIDE_RAYS_PER_AXIS, threads, rows)
     return np.asarray(a), np.asarray(n)

@@ -425,7 +425,10 @@ def image_result(name: str, sums: CameraSums, n: int, in_place: bool = False) ->
 
 ADAPTIVE_FLOOR = 0.05  # pixel values below this fraction of the image's mean count as that
 CHUNK_SECONDS = 0.5             # a camera pass longer than this runs in pieces (bands of rows)
-CHUNK_PIXEL_SAMPLES = 1 << 16   # ... and the first, whose speed is unknown, this many at a time
+CHUNK_PIXEL_SAMPLES = 1 << 13   # ... the first piece, whose speed is unknown, this many
+                                #     (about a tenth of a second on two cores: the first pixels)
+GUIDE_FIRST_PIXELS = 1 << 15    # denoising guides: the first piece, then pieces of CHUNK_SECONDS
+GUIDE_WORK = 1                  # their cost counted as this many samples per pixel (progress)
 
 
 def row_bands(active, height: int, width: int, k: int) -> list[tuple[int, int]]:
@@ -633,17 +636,16 @@ class Renderer:
 
     def changed_rows(self, camera: str, since: int = -1) -> tuple[int, int, int] | None:
         """(first, end, version): the rows of a camera that changed after version ``since``
-        (all for -1), and the version they are at; None before its first pass or when nothing
-        changed."""
+        (for -1: the rows rendered so far, which may be a few: a display need not convert the
+        rest, still black), and the version they are at; None before its first pass or when
+        nothing changed."""
         with self._lock:
             if self._live(camera) is None:
                 return None
             version = self._cam_version.get(camera, 0)
             if version <= since:
                 return None
-            if since < 0:
-                return 0, len(self._cam_rows[camera]), version
-            changed = np.flatnonzero(self._cam_rows[camera] > since)
+            changed = np.flatnonzero(self._cam_rows[camera] > max(since, 0))
             return int(changed[0]), int(changed[-1]) + 1, version
 
     def total_sums(self, camera: str, rows: tuple[int, int] | None = None) -> DisplaySums | None:
@@ -657,6 +659,32 @@ class Renderer:
             r = slice(*rows) if rows is not None else slice(None)
             return DisplaySums(np.ascontiguousarray(sums.s[r, :, 0, :]), sums.n[r].copy(),
                                rows[0] if rows is not None else 0)
+
+    def _guides(self, core, ci: int, cam, g: slice, nb: int, guide_maps: dict) -> bool:
+        """The denoising guides of a camera for one band group, in bands of rows (the first
+        GUIDE_FIRST_PIXELS pixels, then pieces of about CHUNK_SECONDS at the speed measured);
+        False when cancelled (then the guides are incomplete and not kept)."""
+        from .denoise import guides as camera_guides
+        width, height = cam.resolution
+        maps = guide_maps.get(cam.name)
+        if maps is None:
+            maps = guide_maps[cam.name] = [np.zeros((height, width, nb), np.float32),
+                                           np.zeros((height, width, 3), np.float32)]
+        r0, rate = 0, None
+        while r0 < height:
+            if self._cancel.is_set():
+                guide_maps.pop(cam.name, None)
+                return False
+            rows = (max(1, GUIDE_FIRST_PIXELS // width) if rate is None
+                    else max(1, int(CHUNK_SECONDS / max(rate * width, 1e-12))))
+            r1 = min(height, r0 + rows)
+            t = time.perf_counter()
+            a, nrm = camera_guides(core, ci, self.threads, rows=(r0, r1))
+            rate = (time.perf_counter() - t) / (r1 - r0) / width
+            maps[0][r0:r1, :, g] = a
+            maps[1][r0:r1] = nrm
+            r0 = r1
+        return True
 
     def _camera_passes(self) -> list[tuple[int, int]]:
         return camera_passes(self.samples)
@@ -687,7 +715,8 @@ class Renderer:
         rounds_run = 0
         targets = [self.radiometer_targets.get(r.name, self.target_error) for r in radiometers]
         adaptive = any(t is not None for t in targets)
-        total_work = len(groups) * (sum(c.resolution[0] * c.resolution[1] * self.samples for c in scene.cameras)
+        total_work = len(groups) * (sum(c.resolution[0] * c.resolution[1] * (self.samples + self.guides * GUIDE_WORK)
+                                        for c in scene.cameras)
                                     + len(radiometers) * self.radiometer_samples)
         done_work = 0
         counters = self.counters = {"segments": 0, "shadow_rays": 0, "paths": 0}
@@ -732,12 +761,6 @@ class Renderer:
             if gi == 0:
                 check_sensors_off_boundaries(core, scene)
                 result.warnings = scene_warnings(scene) + sensor_warnings(core, scene)
-            if self.guides:  # a few fixed rays per pixel: cheap next to one pass
-                from .denoise import guides as camera_guides
-                for ci, cam in enumerate(scene.cameras):
-                    a, nrm = camera_guides(core, ci, self.threads)
-                    al = guide_maps.setdefault(cam.name, [np.zeros(a.shape[:2] + (nb,), np.float32), nrm])
-                    al[0][:, :, g] = a
             for ri in range(len(radiometers)):
                 m = core.radiometer_medium(ri)
                 media[ri] = "air" if m < 0 else scene.water[m].name
@@ -778,13 +801,33 @@ class Renderer:
                             stopped[cam.name] = done_px
                         taking = npix if active is None else int(np.count_nonzero(active))
                         work = taking * n
-                        k = (math.ceil(work / CHUNK_PIXEL_SAMPLES) if rate is None
-                             else math.ceil(work * rate / CHUNK_SECONDS))
-                        pieces = [(active, rows) for rows in row_bands(active, height, width, k)]
-                        plan.extend((pi, m, rows) for m, rows in pieces)
+                        if active is None:
+                            pieces = None  # decided piece by piece, at the speed measured
+                        else:
+                            k = (math.ceil(work / CHUNK_PIXEL_SAMPLES) if rate is None
+                                 else math.ceil(work * rate / CHUNK_SECONDS))
+                            pieces = [(active, rows) for rows in row_bands(active, height, width, k)]
+                            plan.extend((pi, m, rows) for m, rows in pieces)
                     new_pass(core, self.seed, (0, ci), pi, len(cam_passes), False)
                     taken = 0
-                    for piece, (m, (r0, r1)) in enumerate(pieces):
+                    piece, next_row = 0, 0
+                    while True:
+                        if pieces is not None:
+                            if piece >= len(pieces):
+                                break
+                            m, (r0, r1) = pieces[piece]
+                            last_piece = piece == len(pieces) - 1
+                        else:  # the first piece small (the first pixels), then about
+                            if next_row >= height:  # CHUNK_SECONDS each, growing at most 2x a
+                                break               # piece (rows differ: sky, then the sea floor)
+                            rows = max(1, int(CHUNK_PIXEL_SAMPLES / (width * n) if rate is None
+                                              else CHUNK_SECONDS / max(rate * width * n, 1e-12)))
+                            if piece:
+                                rows = min(rows, 2 * (plan[-1][2][1] - plan[-1][2][0]))
+                            m, r0 = None, next_row
+                            r1 = next_row = min(height, r0 + rows)
+                            last_piece = r1 == height
+                            plan.append((pi, None, (r0, r1)))
                         t_piece = time.perf_counter()
                         bufs = tuple(b[:r1 - r0] for b in out(shape))  # (a view: no new pages)
                         s, s2, c = core.render_camera(ci, start, n, self.threads, bufs, m, (r0, r1))
@@ -797,7 +840,7 @@ class Renderer:
                             rate = dt / (px * n)
                         with self._lock:
                             sums.add_pass(g, s, s2, n, gi == 0, m, rows=(r0, r1),
-                                          new_pass=piece == 0, last_piece=piece == len(pieces) - 1)
+                                          new_pass=piece == 0, last_piece=last_piece)
                             if gi == 0:
                                 cam_done[cam.name] = start + n
                             self._cam_version[cam.name] = version = self._cam_version.get(cam.name, 0) + 1
@@ -805,6 +848,7 @@ class Renderer:
                             add_counts(c)
                             done_work += px * n
                         taken += px
+                        piece += 1
                     if cancelled:
                         break
                     done_work += max(0, npix - taken) * n  # (a stopped pixel's share is done too)
@@ -812,6 +856,16 @@ class Renderer:
                            + (f" ({taken / npix:.0%} of pixels)" if taken < npix else ""))
                 if cancelled:
                     break
+            # Denoising guides: a few fixed rays per pixel, after the passes (the first pixels
+            # do not wait for them) and in bands of rows like a pass, so that a cancel stops
+            # them within about CHUNK_SECONDS too.
+            if self.guides and not cancelled:
+                for ci, cam in enumerate(scene.cameras):
+                    if not self._guides(core, ci, cam, g, nb, guide_maps):
+                        cancelled = True
+                        break
+                    done_work += cam.resolution[0] * cam.resolution[1] * GUIDE_WORK
+                    report(f"camera {cam.name}: denoising guides")
             # Radiometers: in rounds (one without a target error), each pass after pass for
             # all radiometers of the round with the same beams (one build per pass serves them
             # all); the passes of a round are paired strata of the sun's disk. With targets,
