@@ -655,11 +655,29 @@ class FinalRender:
                 stops = bandmod.auto_exposure(passes["Combined"])
                 if stops is not None:
                     self.summary["auto_exposure"] = stops
+                    self._expose(stops)
             elif cancel_at is not None and cancelled_rows is not None:
                 rows = cancelled_rows()
                 if rows is not None:
                     write_rows(self._pass(result, "Combined"), rows)
             engine.end_result(result)
+
+    def _expose(self, stops: float) -> None:
+        """Auto Exposure: the scene's display exposure set before render() returns, because
+        Blender writes a frame's file (``-f``, ``-a``, an animation from the UI) after render()
+        and before any handler runs, with the scene's view settings then: set later (the
+        render_complete handler, which still sets it for stand-ins), every 8-bit file was
+        saved with the exposure the scene had before. The Combined pass, the EXR and the
+        tables keep their radiometric values. Each frame of an animation gets its own."""
+        scene = getattr(self.depsgraph, "scene", None)
+        scene = getattr(scene, "original", scene)
+        props = getattr(scene, "photic", None)
+        if props is None or not props.auto_exposure or not hasattr(scene, "view_settings"):
+            return
+        try:
+            scene.view_settings.exposure = stops
+        except (AttributeError, TypeError, RuntimeError) as exc:  # (a read-only scene)
+            print(f"Photic: auto exposure not set: {exc}")
 
     def _show(self, result, image, bands, t: float) -> None:
         """A streamed update of the render view, t seconds into the render."""

@@ -134,3 +134,27 @@ def test_sun_below_horizon_reports_the_light_without_traceback(installed, tmp_pa
     assert "Light 'Sun', Rotation: puts the sun below the horizon" in text, text
     assert "Blender quit" in text
     assert not (out / "frame_0001.exr").exists()
+
+
+def test_background_animation_pngs_get_auto_exposure(installed, tmp_path):
+    """``blender -b FILE -E PHOTIC -o ... -F PNG -s 1 -e 2 -a`` with the sun 1000 x dimmer than
+    the file's and the display exposure 0: each 8-bit PNG is saved with the exposure Auto
+    Exposure sets for its frame (the issue: near black, the exposure before the render)."""
+    PIL = pytest.importorskip("PIL.Image")
+    import numpy as np
+    _, env = installed
+    dim = (LOW_SAMPLES + "; s.view_settings.view_transform = 'Standard'; s.view_settings.exposure = 0.0; "
+           "s.render.image_settings.color_depth = '8'; s.render.image_settings.color_mode = 'RGB'; "
+           "[setattr(o.data, 'energy', o.data.energy * 1e-3) for o in s.objects if o.type == 'LIGHT']; "
+           "s.photic.auto_exposure = True")
+    out = tmp_path / "out"
+    proc = run([BLENDER, "-b", "--addons", "photic_blender", str(BLEND), "--python-expr", dim,
+                "-E", "PHOTIC", "-o", str(out / "frame_####"), "-F", "PNG", "-s", "1", "-e", "2", "-a"], env)
+    text = proc.stdout + proc.stderr
+    assert proc.returncode == 0 and "Traceback" not in text, text
+    means = []
+    for f in (1, 2):
+        png = out / f"frame_{f:04d}.png"
+        assert png.is_file(), text
+        means.append(float(np.asarray(PIL.open(png).convert("RGB"), float).mean()))
+    assert all(40.0 < m < 220.0 for m in means), means
