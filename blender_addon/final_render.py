@@ -461,7 +461,11 @@ class FinalRender:
         props = bscene.photic
         self.denoise = bool(props.denoise)
         if self.denoise:
-            from photic.denoise import unavailable_reason
+            from photic.denoise import denoiser, unavailable_reason
+
+            from .oidn import use_blender_library
+            use_blender_library(photic)  # (Blender's own OpenImageDenoise when it has one)
+            self.summary["denoiser"] = denoiser()
             reason = unavailable_reason()
             if reason is not None:
                 self.denoise = False

@@ -146,6 +146,74 @@ def _scene(scene):
     add_sun(30)
 
 
+@pytest.fixture(autouse=True)
+def _pyoidn_unless_a_test_names_a_library(monkeypatch):
+    """Every test starts with the engine's default denoiser (pyoidn); a render through the
+    add-on may name Blender's library (photic.denoise.LIBRARY), undone after the test."""
+    monkeypatch.setattr(denoise, "LIBRARY", None)
+
+
+def _hide_pyoidn(monkeypatch):
+    """pyoidn neither importable nor found, as in the extension (which does not bundle it)."""
+    import builtins
+    import importlib.util
+    real_import, real_find = builtins.__import__, importlib.util.find_spec
+
+    def no_oidn(name, *a, **k):
+        if name == "pyoidn":
+            raise ImportError("No module named 'pyoidn'")
+        return real_import(name, *a, **k)
+
+    monkeypatch.setattr(builtins, "__import__", no_oidn)
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a, **k: None if name == "pyoidn" else real_find(name, *a, **k))
+
+
+def test_blenders_own_denoiser_is_found_and_denoises_as_pyoidn_does():
+    """The OpenImageDenoise that Blender links (bpy 5.0: bpy/lib) is found by the add-on and,
+    called through its C API, gives pyoidn's image (the same RT filter)."""
+    from photic_blender import oidn
+    path = oidn.blender_library()
+    assert path is not None and "OpenImageDenoise" in path and "_core" not in path, path
+    assert path == oidn.loaded_library()  # (the one Blender itself has loaded)
+    rng = np.random.default_rng(0)
+    c = (0.5 + 0.2 * rng.standard_normal((24, 32, 3))).astype(np.float32)
+    a = np.full((24, 32, 3), 0.5, np.float32)
+    n = np.zeros((24, 32, 3), np.float32)
+    n[..., 2] = 1.0
+    ours = denoise.denoise_rgb(c, a, n) if denoise.available() else None
+    assert denoise.use_library(path) is None and denoise.denoiser() == path
+    theirs = denoise.denoise_rgb(c, a, n)
+    assert theirs.shape == c.shape and np.isfinite(theirs).all()
+    assert theirs.std() < 0.5 * c.std()  # denoised: the noise (std 0.2) mostly gone
+    if ours is not None:
+        np.testing.assert_allclose(theirs, ours, atol=2e-3)
+    assert denoise.use_library("/nonexistent/libOpenImageDenoise.so") is not None
+    assert denoise.LIBRARY is None
+
+
+def test_denoise_without_pyoidn_uses_blenders_own(empty, monkeypatch):
+    """As in the extension (no pyoidn): F12 with Denoise denoises with Blender's library, no
+    warning, the noisy image kept; through bpy.ops.render.render."""
+    from photic_blender import oidn
+    _hide_pyoidn(monkeypatch)
+    assert not denoise.available()  # (pyoidn is really out of reach)
+    _scene(empty)
+    empty.photic.denoise = True
+    final_render.LAST_RENDER.clear()
+    bpy.ops.render.render()
+    summary = final_render.LAST_RENDER
+    assert summary["error"] is None and summary.get("denoise_s", 0) > 0, summary
+    assert summary["denoiser"] == oidn.blender_library()
+    engine = _KeepPasses(break_after_s=1e9)  # (the passes, as the render view gets them)
+    summary = final_render.FinalRender(engine, bpy.context.evaluated_depsgraph_get()).run()
+    assert not any("Denoise is off" in m for _, m in engine.reports), engine.reports
+    img_c = np.asarray(engine.passes["Combined"]).reshape(32, 48, 4)[:, :, :3]
+    img_n = np.asarray(engine.passes[final_render.NOISY_PASS]).reshape(32, 48, 3)
+    assert np.isfinite(img_c).all() and not np.allclose(img_c, img_n)
+    assert np.abs(np.diff(img_c, axis=1)).mean() < np.abs(np.diff(img_n, axis=1)).mean()
+
+
 def test_denoising_data_passes_are_registered_and_written(empty):
     _scene(empty)
     names = [n for n, _, _ in final_render.render_passes(empty)]

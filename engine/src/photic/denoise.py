@@ -1,8 +1,10 @@
 """Denoising a rendered image with Intel Open Image Denoise (OIDN), guided by the camera's
 albedo and normal (``Scene::camera_guides``), the way Cycles users know it.
 
-OIDN is the denoiser Blender itself ships; its Python binding ``pyoidn`` (a requirement of
-the package) carries the library. OIDN filters three channels at a time, so an image of
+OIDN is the denoiser Blender itself ships. A host that has the library (Blender's add-on finds
+Blender's own: ``bpy/lib`` in the ``bpy`` module, ``lib/`` beside a 4.x ``blender``) names it
+with ``use_library`` and it is called through its C API (``oidn_library``), in the process;
+otherwise the Python binding ``pyoidn`` (a requirement of the package) carries one. OIDN filters three channels at a time, so an image of
 ``n`` bands is denoised as ceil(n / 3) RGB images of consecutive bands (the last padded with
 its own last band), each with the same bands of the albedo.
 
@@ -19,6 +21,33 @@ GUIDE_RAYS_PER_AXIS = 2  # 4 fixed sub-pixel rays per pixel: anti-aliased, noise
 
 class DenoiserMissing(RuntimeError):
     """OpenImageDenoise (``pyoidn``) is not installed."""
+
+
+#: The path of an OpenImageDenoise shared library to call (``use_library``), or None: pyoidn.
+LIBRARY: str | None = None
+
+
+def use_library(path: str | None) -> str | None:
+    """Denoise with the OpenImageDenoise shared library at ``path`` (None: with pyoidn). The
+    library is loaded now; returns None when it can be used, else why not (then pyoidn
+    stays the denoiser)."""
+    global LIBRARY
+    if path is None:
+        LIBRARY = None
+        return None
+    from .oidn_library import OIDNError, library
+    try:
+        library(path)
+    except OIDNError as exc:
+        LIBRARY = None
+        return str(exc)
+    LIBRARY = str(path)
+    return None
+
+
+def denoiser() -> str:
+    """What denoises: the library's path, or 'pyoidn'."""
+    return LIBRARY if LIBRARY is not None else "pyoidn"
 
 
 def _import_pyoidn():
@@ -49,6 +78,8 @@ def unavailable_reason() -> str | None:
     """Why OpenImageDenoise cannot be used here, or None when it can. Any failure of the
     import counts (a Blender whose Python has another cffi backend first on its path fails
     with a version mismatch, not an ImportError)."""
+    if LIBRARY is not None:
+        return None
     try:
         if _separate_process() is not None:  # denoised in a process of its own: not imported here
             import importlib.util
@@ -118,7 +149,8 @@ def denoise_rgb(color: np.ndarray, albedo: np.ndarray | None = None,
                 normal: np.ndarray | None = None) -> np.ndarray:
     """An (H, W, 3) HDR image denoised, with optional (H, W, 3) albedo in [0, 1] and normal
     guides (noise-free: no prefiltering). Non-finite values in the colour are taken as 0.
-    Inside a Blender application OIDN runs in a process of its own (_separate_process)."""
+    With a library named by ``use_library`` it runs in this process; with pyoidn, inside a
+    Blender application, in a process of its own (_separate_process)."""
     reason = unavailable_reason()
     if reason is not None:
         raise DenoiserMissing(reason)
@@ -128,6 +160,9 @@ def denoise_rgb(color: np.ndarray, albedo: np.ndarray | None = None,
     n = None if normal is None else np.ascontiguousarray(np.clip(normal, -1.0, 1.0), np.float32)
     if a is None and n is not None:
         n = None  # OIDN takes a normal only together with an albedo
+    if LIBRARY is not None:
+        from .oidn_library import library
+        return library(LIBRARY).denoise(c, a, n)
     if _separate_process() is not None:
         return _denoise_in_child(c, a, n)
     out = _import_pyoidn().denoise(c, a, n, hdr=True, clean_aux=a is not None, quality="high")
