@@ -59,11 +59,16 @@ def compatible_panels():
 
 @bpy.app.handlers.persistent
 def _auto_exposure_after_render(scene, *args):
-    """After a render job, on the main thread: the display exposure of Auto Exposure."""
+    """After a render job: the display exposure of Auto Exposure, the radiometer results
+    kept in the scene."""
     try:
         final_render.apply_auto_exposure(scene)
     except Exception as exc:  # noqa: BLE001  (a handler must not break Blender)
         print(f"Photic: auto exposure not set: {exc}")
+    try:
+        final_render.keep_results(scene)  # (the radiometers' results, saved with the .blend)
+    except Exception as exc:  # noqa: BLE001
+        print(f"Photic: radiometer results not kept in the file: {exc}")
 
 
 def register():

@@ -8,13 +8,19 @@ import math
 
 import numpy as np
 
+from . import water_types
 from .export_values import ExportError, _obj, blender_float, per_band
 
 
 def iops(ex, obj):
-    """The water's IOPs from its IOP source (the base IOPs of a grid)."""
+    """The water's IOPs from its Water Type, or for 'Custom' from its IOP source (the base
+    IOPs of a grid)."""
     p = obj.original.photic
     owner = _obj(obj.name)
+    kind = water_types.effective(p)
+    if kind != water_types.CUSTOM:
+        return model_iops(ex, owner, water_types.model_json(kind),
+                          f"Photic > Water Type '{water_types.TYPES[kind][0]}' (photic.water_type)")
     if p.iop_source == "MODEL":
         return model_iops(ex, owner, p.iop_model, "Photic > IOP Model (photic.iop_model)")
     a = per_band(owner, p.absorption, p.absorption_bands, "Photic > Absorption",

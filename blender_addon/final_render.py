@@ -345,6 +345,46 @@ def table_stem(bscene, blend_path: str | None = None) -> tuple[Path, str]:
     return temp, f"untitled_{frame:04d}"
 
 
+def keep_results(scene) -> bool:
+    """The last radiometer results of ``scene`` (LAST_RADIOMETERS) into its
+    ``photic.last_results`` (JSON), so that they are saved with the .blend and shown again
+    when it is opened; after a render job or the Render Radiometers operator, on the thread
+    Blender runs its handlers on (a render must not edit scene data while it runs). Whether
+    anything was kept."""
+    import json
+    last = LAST_RADIOMETERS.get(scene.name)
+    props = getattr(scene, "photic", None)
+    if last is None or props is None:
+        return False
+    text = json.dumps(last)
+    if props.last_results != text:
+        props.last_results = text
+    return True
+
+
+def shown_results(scene) -> dict | None:
+    """The radiometer results the Radiometer Results panel shows: this session's last, else
+    those saved in the .blend (``photic.last_results``); None when there are none."""
+    import json
+    last = LAST_RADIOMETERS.get(scene.name)
+    if last is not None:
+        return last
+    text = getattr(getattr(scene, "photic", None), "last_results", "") or ""
+    if not text:
+        return None
+    try:
+        last = json.loads(text)
+    except ValueError:
+        return None
+    return last if isinstance(last, dict) and "rows" in last else None
+
+
+def short_units(units: str) -> str:
+    """'W m^-2 sr^-1 (per unit of ...)' -> 'W m⁻² sr⁻¹' (the panel's column)."""
+    head = units.split(" (", 1)[0]
+    return head.replace("^-2", "⁻²").replace("^-1", "⁻¹")
+
+
 def write_radiometer_results(photic, final, bscene, report) -> list[str]:
     """The radiometers of a finished (or cancelled) render: kept for the Radiometer Results
     panel, and written as tables beside the frame's output (``table_stem``) unless the scene
@@ -360,6 +400,7 @@ def write_radiometer_results(photic, final, bscene, report) -> list[str]:
         return []
     final.radiometers = done
     LAST_RADIOMETERS[bscene.name] = {"bands": [b.name for b in final.bands],
+                                     "band_nm": [[float(b.center_nm), float(b.width_nm)] for b in final.bands],
                                      "rows": radiometer_summary(final),
                                      "cancelled": final.cancelled}
     if not bscene.photic.write_tables:

@@ -13,6 +13,8 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
                        FloatVectorProperty, IntProperty, PointerProperty, StringProperty)
 
+from . import water_types
+
 ROLES = [
     ("NONE", "None", "An ordinary object: opaque, Lambertian with its material's base colour"),
     ("WATER_BODY", "Water Body", "A closed mesh filled with water (a pool, a tank, a lake's volume)"),
@@ -123,6 +125,21 @@ class PhoticGridField(bpy.types.PropertyGroup):
                                               "this field's scattering", 0.0))
 
 
+def _iops_edited(self, context):
+    """An IOP edited by hand: the water is 'Custom' from now on (its Water Type gives way)."""
+    if self.water_type != water_types.CUSTOM:
+        self.water_type = water_types.CUSTOM
+
+
+def _water_type_update(self, context):
+    """'Custom' chosen for a water whose IOPs were never set: they start as the default water
+    type's model (editable), not as the grey coefficients below it."""
+    if self.water_type == water_types.CUSTOM and \
+            not any(self.is_property_set(k) for k in water_types.IOP_FIELDS):
+        self.iop_source = "MODEL"
+        self.iop_model = water_types.model_json(water_types.DEFAULT)
+
+
 class PhoticObjectProperties(bpy.types.PropertyGroup):
     """Photic role and parameters of an object."""
 
@@ -130,6 +147,13 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
                        description="What the object is to Photic")
 
     # Water (bodies and surfaces)
+    water_type: EnumProperty(
+        name="Water Type", items=water_types.enum_items(), default=water_types.DEFAULT,
+        update=_water_type_update,
+        description="The water's absorption and scattering from a measured natural water "
+                    f"({water_types.SOURCE}; docs/blender.md), or Custom: the IOPs below. "
+                    "Editing an IOP makes the water Custom")
+
     iop_source: EnumProperty(
         name="IOPs", default="VALUES",
         items=[("VALUES", "Coefficients", "Absorption and scattering as given below"),
@@ -140,42 +164,43 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
                ("MODEL", "IOP Model", "The water community's models (CDOM, particles, Case 1, "
                                       "mixtures, installed plugins) as described in 'IOP Model' "
                                       "(the scene format's iop_model, docs/iop-models.md)")],
-        description="Where the water's absorption and scattering come from")
+        description="Where the water's absorption and scattering come from", update=_iops_edited)
     iop_model: StringProperty(
         name="IOP Model",
         default='{"model": "mixture", "components": [{"model": "cdom", "a_ref": 0.05}, '
                 '{"model": "particles", "b_ref": 0.2}]}',
         description="IOP model description in JSON (docs/iop-models.md), evaluated per band; "
-                    "pure water is included unless \"water\": \"none\"")
+                    "pure water is included unless \"water\": \"none\"", update=_iops_edited)
     absorption: FloatProperty(
         name="Absorption a (m⁻¹)", default=0.1, min=0.0, soft_max=10.0, precision=4,
         description="Absorption coefficient a (m^-1), the same in every band unless "
-                    "'Absorption per band' is given")
+                    "'Absorption per band' is given", update=_iops_edited)
     absorption_bands: StringProperty(
         name="Absorption per Band (m⁻¹)",
         description="Absorption coefficients a (m^-1), one per band in the scene's band order, "
-                    "separated by commas; empty: use 'Absorption a' in every band")
+                    "separated by commas; empty: use 'Absorption a' in every band",
+        update=_iops_edited)
     scattering: FloatProperty(
         name="Scattering b (m⁻¹)", default=0.2, min=0.0, soft_max=10.0, precision=4,
         description="Scattering coefficient b (m^-1), the same in every band unless "
-                    "'Scattering per band' is given")
+                    "'Scattering per band' is given", update=_iops_edited)
     scattering_bands: StringProperty(
         name="Scattering per Band (m⁻¹)",
         description="Scattering coefficients b (m^-1), one per band, separated by commas; "
-                    "empty: use 'Scattering b' in every band")
+                    "empty: use 'Scattering b' in every band", update=_iops_edited)
     phase_function: EnumProperty(name="Phase Function", items=PHASE_FUNCTIONS,
-                                 default="petzold",
+                                 default="petzold", update=_iops_edited,
                                  description="Angular distribution of scattered light")
     # (the engine's range, photic.parameters; dragging stops at +-0.99)
     hg_g: FloatProperty(name="Asymmetry g", default=0.9, min=-0.9999, max=0.9999, soft_min=-0.99,
-                        soft_max=0.99, precision=4,
+                        soft_max=0.99, precision=4, update=_iops_edited,
                         description="Henyey-Greenstein mean cosine of scattering "
                                     "(dimensionless), in [-0.9999, 0.9999]")
     # (at most 0.15: the range of the Fournier-Forand parameterisation the engine uses)
     ff_backscatter: FloatProperty(
         name="Backscatter Fraction", default=0.0183, min=0.0001, max=0.15, precision=4,
         description="Fournier-Forand backscatter fraction b_b/b (dimensionless), "
-                    "in [0.0001, 0.15]")
+                    "in [0.0001, 0.15]", update=_iops_edited)
     ior: FloatProperty(name="Refractive Index", default=1.34, min=1.0, max=2.0, precision=3,
                        description="Refractive index of the water relative to air "
                                    "(dimensionless), in [1, 2]")

@@ -158,6 +158,7 @@ class PHOTIC_OT_render_radiometers(bpy.types.Operator):
         except RuntimeError as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
+        final_render.keep_results(context.scene)
         for m in summary.get("messages", []):
             self.report({"WARNING"}, m)
         self.report({"INFO"}, f"{summary.get('radiometers', 0)} radiometers rendered"
@@ -181,6 +182,7 @@ class PHOTIC_OT_render_radiometers(bpy.types.Operator):
         if context.area:
             context.area.header_text_set(None)
         summary = run.finish(lambda level, text: self.report({level}, text))
+        final_render.keep_results(context.scene)
         for area in context.screen.areas if context.screen else []:
             area.tag_redraw()
         if summary.get("error"):

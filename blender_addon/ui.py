@@ -5,7 +5,7 @@ import bpy
 
 import textwrap
 
-from . import final_render, scene_notes
+from . import final_render, scene_notes, water_types
 from .natural_waters import WATER_ROLES
 from .properties import MAX_FURTHER_FIELDS
 from .engine_loader import engine_error, load_engine
@@ -131,20 +131,22 @@ class PHOTIC_PT_radiometer_results(PhoticPanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         layout.operator("photic.render_radiometers", icon="LIGHT_SUN")
-        last = final_render.LAST_RADIOMETERS.get(context.scene.name)
+        last = final_render.shown_results(context.scene)
         if not last:
             layout.label(text="No radiometer results yet (F12, or Render Radiometers)")
             return
         if last["cancelled"]:
             layout.label(text="Render was cancelled: partial results", icon="INFO")
         layout.label(text="Bands (nm): " + ", ".join(last["bands"]))
+        layout.label(text="Value ± standard error, per unit of the sun's spectrum (e.g. nm⁻¹)")
         for row in last["rows"][:40]:
             # '?': a standard error not to be trusted (too few passes, heavy tails)
             trusted = row.get("trusted", [True] * len(row["value"]))
             values = ", ".join(f"{v:.4g}±{e:.2g}{'' if t else '?'}"
                                for v, e, t in zip(row["value"], row["stderr"], trusted))
             extra = f" ({row['bins']} bins, first shown)" if row["bins"] > 1 else ""
-            layout.label(text=f"{row['name']} {row['quantity']} [{row['medium']}]: {values}{extra}")
+            units = final_render.short_units(row.get("units", ""))
+            layout.label(text=f"{row['name']} {row['quantity']} [{row['medium']}]: {values} {units}{extra}")
             if row.get("target_error") is not None and not row.get("target_reached"):
                 layout.label(text=f"    target error {100 * row['target_error']:.3g} % not reached "
                                   f"in {row['samples']} samples (raise Radiometer Samples)",
@@ -173,7 +175,15 @@ class PHOTIC_PT_object(PhoticPanel, bpy.types.Panel):
         _draw_notes(layout, context, "OBJECT", obj.name)
         layout.prop(p, "role")
         if p.role in WATER_ROLES:
-            _draw_iops(layout, p, "iop_source", "iop_model", "")
+            kind = water_types.effective(p)
+            layout.prop(p, "water_type")
+            if kind != water_types.CUSTOM:
+                for i, line in enumerate(textwrap.wrap(water_types.describe(kind), 44)):
+                    layout.label(text=line, icon="INFO" if i == 0 else "BLANK1")
+            else:
+                if p.water_type != water_types.CUSTOM:  # (a file from before water types)
+                    layout.label(text="Custom: this file's own IOPs", icon="INFO")
+                _draw_iops(layout, p, "iop_source", "iop_model", "")
             layout.prop(p, "ior")
         if p.role == "WATER_SURFACE":
             layout.prop(p, "surface_shape")
