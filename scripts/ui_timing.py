@@ -94,12 +94,14 @@ def wrap(cls, name, key, first_only=True):
     original = getattr(cls, name)
 
     def wrapper(*a, **kw):
+        t = time.perf_counter()
         if not first_only or key not in marks:
-            marks[key] = time.perf_counter()
+            marks[key] = t
         try:
             return original(*a, **kw)
         finally:
             marks[key + "_end"] = time.perf_counter()
+            marks.setdefault(key + "_durations", []).append(marks[key + "_end"] - t)
     setattr(cls, name, wrapper)
 
 
@@ -185,6 +187,9 @@ def f12_runs():
                        "first_update_s": marks["first_update"] - t0 if "first_update" in marks else None,
                        "render_call_s": marks["render_call"] - t0 if "render_call" in marks else None,
                        "job_end_s": now - t0}
+                # how long each streamed update took in the render thread (update_result with
+                # the interpreter lock held: the interface's Python waits meanwhile)
+                run["update_durations_s"] = [round(d, 3) for d in marks.get("first_update_durations", [])]
                 if state["esc"] is not None:
                     run["esc_to_job_end_s"] = now - state["esc"]
                     if "render_call_end" in marks:
@@ -195,6 +200,9 @@ def f12_runs():
                     run["summary"] = {k: s.get(k) for k in ("cancelled", "cancel_latency_s", "samples",
                                                             "denoise_s", "export_s", "time_s", "error")}
                     run["summary"]["updates"] = s.get("updates")
+                    if state["esc"] is not None and s.get("cancel_at") is not None:
+                        # Esc to the add-on's test_break() seeing it: Blender's part of Esc
+                        run["esc_to_test_break_s"] = s["cancel_at"] - state["esc"]
                 except Exception:  # noqa: BLE001
                     traceback.print_exc()
                 results["runs"].append(run)
