@@ -406,6 +406,8 @@ def test_viewport_shows_a_coarse_first_image_then_the_full_resolution(empty, mon
     eng = _ViewEngine()
     ctx = _view_context(640, 480)  # 320 x 240 rendered: more than PREVIEW_MIN_PIXELS
     assert 320 * 240 > viewport.ViewportRender.PREVIEW_MIN_PIXELS
+    assert viewport.ViewportRender.preview_factor(320, 240) == 4  # (80 x 60: the least factor)
+    assert viewport.ViewportRender.preview_factor(660, 438) == 7  # (Blender's 3D view at 50 %)
     depsgraph = bpy.context.evaluated_depsgraph_get()
     try:
         vp.update(ctx, depsgraph)
