@@ -72,16 +72,16 @@ def _unit_coefficients(per: str, scattering: str, b_default: float) -> dict:
     the density ("per unit density"), ``scattering`` the scattering they add."""
     return {
         "unit_absorption": FloatProperty(
-            name="Unit Absorption (m⁻¹)", default=0.1, min=0.0, soft_max=10.0, precision=4,
+            name="Unit a (m⁻¹)", default=0.1, min=0.0, soft_max=10.0, precision=4,
             description=f"Absorption {per} (m^-1) in every band unless given per band"),
         "unit_absorption_bands": StringProperty(
-            name="Unit Absorption per Band (m⁻¹)",
+            name="a per Band (m⁻¹)",
             description=f"Absorption {per} (m^-1), one per band separated by commas"),
         "unit_scattering": FloatProperty(
-            name="Unit Scattering (m⁻¹)", default=b_default, min=0.0, soft_max=100.0, precision=4,
+            name="Unit b (m⁻¹)", default=b_default, min=0.0, soft_max=100.0, precision=4,
             description=f"Scattering {per} (m^-1) in every band unless given per band"),
         "unit_scattering_bands": StringProperty(
-            name="Unit Scattering per Band (m⁻¹)",
+            name="b per Band (m⁻¹)",
             description=f"Scattering {per} (m^-1), one per band separated by commas"),
         "unit_phase_function": EnumProperty(
             name="Unit Phase Function", items=PHASE_FUNCTIONS, default="fournier_forand",
@@ -172,20 +172,20 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
         description="IOP model description in JSON (docs/iop-models.md), evaluated per band; "
                     "pure water is included unless \"water\": \"none\"", update=_iops_edited)
     absorption: FloatProperty(
-        name="Absorption a (m⁻¹)", default=0.1, min=0.0, soft_max=10.0, precision=4,
+        name="Absorption (m⁻¹)", default=0.1, min=0.0, soft_max=10.0, precision=4,
         description="Absorption coefficient a (m^-1), the same in every band unless "
                     "'Absorption per band' is given", update=_iops_edited)
     absorption_bands: StringProperty(
-        name="Absorption per Band (m⁻¹)",
+        name="a per Band (m⁻¹)",
         description="Absorption coefficients a (m^-1), one per band in the scene's band order, "
                     "separated by commas; empty: use 'Absorption a' in every band",
         update=_iops_edited)
     scattering: FloatProperty(
-        name="Scattering b (m⁻¹)", default=0.2, min=0.0, soft_max=10.0, precision=4,
+        name="Scattering (m⁻¹)", default=0.2, min=0.0, soft_max=10.0, precision=4,
         description="Scattering coefficient b (m^-1), the same in every band unless "
                     "'Scattering per band' is given", update=_iops_edited)
     scattering_bands: StringProperty(
-        name="Scattering per Band (m⁻¹)",
+        name="b per Band (m⁻¹)",
         description="Scattering coefficients b (m^-1), one per band, separated by commas; "
                     "empty: use 'Scattering b' in every band", update=_iops_edited)
     phase_function: EnumProperty(name="Phase Function", items=PHASE_FUNCTIONS,
@@ -232,7 +232,7 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
         update=_wave_update,
         description="Waves as 'amplitude_m:wavelength_m:direction_deg:phase_rad' separated by "
                     "commas; each must repeat a whole number of times over the patch")
-    wind_speed: FloatProperty(name="Wind Speed (m/s)", default=5.0, min=0.0, max=50.0, precision=2,
+    wind_speed: FloatProperty(name="Wind (m/s)", default=5.0, min=0.0, max=50.0, precision=2,
                               update=_wave_update,
                               description="Wind speed at 10 m above the sea (m/s): the wave "
                                           "spectrum's and the Cox-Munk roughness's wind")
@@ -300,10 +300,10 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
                                         "a CSV table (Text or file), with the phase function "
                                         "above (and pure water with 'Pure Water + Additions')")],
         description="Where the depth profile comes from")
-    chl_background: FloatProperty(name="Background Chl (mg m⁻³)", default=0.1, min=0.0, soft_max=50.0,
+    chl_background: FloatProperty(name="Base (mg m⁻³)", default=0.1, min=0.0, soft_max=50.0,
                                   precision=3, description="Chlorophyll concentration far from "
                                                            "the maximum (mg m^-3), >= 0")
-    chl_peak: FloatProperty(name="Peak Chl (mg m⁻³)", default=1.0, min=0.0, soft_max=50.0, precision=3,
+    chl_peak: FloatProperty(name="Peak (mg m⁻³)", default=1.0, min=0.0, soft_max=50.0, precision=3,
                             description="Chlorophyll added at the depth of the maximum "
                                         "(mg m^-3), >= 0")
     chl_peak_depth: FloatProperty(name="Depth of Peak", default=20.0, min=0.0, soft_max=200.0,
@@ -453,7 +453,7 @@ class PhoticLightProperties(bpy.types.PropertyGroup):
     """A sun lamp's irradiance per band, overriding its Strength and Color."""
 
     irradiance_bands: StringProperty(
-        name="Irradiance per Band (W m⁻² nm⁻¹)",
+        name="E Bands (W m⁻²)",
         description="Sun irradiance normal to the sun (W m^-2 per unit of the band's spectrum, "
                     "e.g. W m^-2 nm^-1), one per band in the scene's band order, separated by "
                     "commas; when given, Strength and Color are not used")
@@ -480,7 +480,7 @@ class PhoticWorldProperties(bpy.types.PropertyGroup):
                ("BLACK", "Black", "No sky light (sun only)")],
         description="Radiance of the sky over the upper hemisphere")
     # (at most 1e20: the engine's limit, the float32 image stays finite)
-    radiance: FloatProperty(name="Radiance L0 (W m⁻² sr⁻¹)", default=0.1, min=0.0, max=1e20,
+    radiance: FloatProperty(name="L (W m⁻² sr⁻¹)", default=0.1, min=0.0, max=1e20,
                             soft_max=100.0,
                             description="Sky radiance scale L0 (W m^-2 sr^-1 per unit of the "
                                         "band's spectrum)")

@@ -160,3 +160,32 @@ def test_radiometer_results_have_units_and_stay_in_the_blend(empty, tmp_path):
     ed = next(t for t in after if t.startswith("Ed1"))
     lu = next(t for t in after if t.startswith("Lu1"))
     assert ed.rstrip().endswith("W m⁻²") and lu.rstrip().endswith("W m⁻² sr⁻¹"), (ed, lu)
+
+
+#: The widest label a property keeps whole in Blender's default Properties editor (the factory
+#: layout at 1920 x 1080: a 303 px region; labels are 40 % of a panel's width), in bpy's UI font
+#: at 11 px: measured in Debian's Blender 3.4 under Xvfb, where "Absorption (m⁻¹)" (89 px here)
+#: showed whole and "Wind Speed (m/s)" (95 px) was cut to "Wind Speed (...".
+LABEL_BUDGET_PX = 90
+
+
+def test_labels_keep_their_units_at_the_default_editor_width(empty):
+    import re
+
+    import blf
+    blf.size(0, 11)
+    groups = [(c.__name__, c.bl_rna.properties["photic"].fixed_type)
+              for c in (bpy.types.Object, bpy.types.Scene, bpy.types.Material, bpy.types.Light,
+                        bpy.types.World)]
+    groups.append(("GridField", groups[0][1].properties["grid_fields"].fixed_type))
+    assert blf.dimensions(0, "Absorption (m⁻¹)")[0] <= LABEL_BUDGET_PX < blf.dimensions(0, "Wind Speed (m/s)")[0]
+    with_units, too_wide = 0, []
+    for owner, grp in groups:
+        for p in grp.properties:
+            if p.identifier == "rna_type" or not re.search(r"\([^)]*\)$", p.name):
+                continue
+            with_units += 1
+            w = blf.dimensions(0, p.name)[0]
+            if w > LABEL_BUDGET_PX:
+                too_wide.append((owner, p.identifier, p.name, w))
+    assert with_units >= 20 and not too_wide, too_wide
