@@ -178,7 +178,7 @@ class PHOTIC_PT_object(PhoticPanel, bpy.types.Panel):
             kind = water_types.effective(p)
             layout.prop(p, "water_type")
             if kind != water_types.CUSTOM:
-                for i, line in enumerate(textwrap.wrap(water_types.describe(kind), 44)):
+                for i, line in enumerate(textwrap.wrap(water_types.describe(kind), 34)):
                     layout.label(text=line, icon="INFO" if i == 0 else "BLANK1")
             else:
                 if p.water_type != water_types.CUSTOM:  # (a file from before water types)

@@ -51,7 +51,7 @@ IOP_FIELDS = ("iop_source", "iop_model", "absorption", "absorption_bands", "scat
 
 
 def enum_items():
-    items = [(k, f"{v[0]} ({v[1]})", f"{v[6][0].upper()}{v[6][1:]}: Petzold's station {v[1]}, "
+    items = [(k, v[0], f"{v[6][0].upper()}{v[6][1:]}: Petzold's station {v[1]}, "
                                       f"{v[2]}: a = {v[3]} m^-1, b = {v[4]} m^-1 at 530 nm, "
                                       f"b_b/b = {v[5]}")
              for k, v in TYPES.items()]
@@ -91,4 +91,4 @@ def effective(p) -> str:
 
 def describe(name: str) -> str:
     label, station, locale, a, b, bb, text = TYPES[name]
-    return f"{label}: Petzold 1972 station {station} ({locale}), a {a}, b {b} m⁻¹ at 530 nm"
+    return f"Petzold 1972, station {station} ({locale}): a {a}, b {b} m⁻¹ at 530 nm"
