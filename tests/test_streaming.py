@@ -461,3 +461,30 @@ def test_a_few_changed_rows_stream_as_a_tile_and_blender_takes_it(empty, tmp_pat
     assert final_render.LAST_RENDER["error"] is None and final_render.LAST_RENDER["updates"] >= 1
     bpy.data.images["Render Result"].save_render(filepath=str(tmp_path / "tiles.exr"), scene=empty)
     assert (tmp_path / "tiles.exr").stat().st_size > 0
+
+
+def test_the_worker_is_lowered_in_priority_only_after_the_first_pixels(empty, monkeypatch):
+    """The render's worker runs at the interface's priority until the first pixels reach the
+    render view, then final_render.lower_priority gets its thread id (in Blender with a window
+    that is nice +4 for it and the threads it starts; nothing in background renders)."""
+    _plume_like(empty, (160, 90), 1 << 10)
+    calls = []
+
+    class Watch(StandInEngine):  # (a streamed update: update_result, or a tile's end_result)
+        def update_result(self, result):
+            calls.append(("shown", None))
+            super().update_result(result)
+
+        def end_result(self, result):
+            calls.append(("shown", None))
+            super().end_result(result)
+
+    monkeypatch.setattr(final_render, "lower_priority",
+                        lambda tid=None: calls.append(("lower", tid)))
+    engine = Watch(break_after_s=3.0)
+    summary = final_render.FinalRender(engine, bpy.context.evaluated_depsgraph_get()).run()
+    assert summary["updates"] >= 1
+    lowered = [i for i, c in enumerate(calls) if c[0] == "lower"]
+    assert len(lowered) == 1 and isinstance(calls[lowered[0]][1], int) and calls[lowered[0]][1] > 0
+    assert calls[lowered[0]][1] != threading.get_native_id()  # the worker's, not this thread's
+    assert lowered[0] > calls.index(("shown", None))  # after the first streamed update
