@@ -112,13 +112,13 @@ class ViewportRender:
 
         def work(renderer=self.renderer, preview=self.preview):
             from .final_render import lower_priority
-            lower_priority()  # (the interface draws this viewport: it must not starve)
             try:
-                if preview is not None:
+                if preview is not None:  # (at the interface's priority: the first image)
                     first = preview.run()
                     if first.cancelled:
                         return
                     holder["preview"] = first
+                lower_priority()  # (the interface draws this viewport: it must not starve)
                 holder["result"] = renderer.run()
             except Exception:
                 traceback.print_exc()
