@@ -693,28 +693,51 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>
     auto for_each_mark = [&](auto&& mark) {
         make_room(grid.last, ncell);
         grid.last.assign(ncell, ~uint32_t(0));
+        auto mark_box = [&](uint32_t pi, const Vec3& blo, const Vec3& bhi, int z0, int z1) {
+            int x0 = std::clamp(int((blo.x - lo.x) / cxy), 0, grid.nx - 1), x1 = std::clamp(int((bhi.x - lo.x) / cxy), 0, grid.nx - 1);
+            int y0 = std::clamp(int((blo.y - lo.y) / cxy), 0, grid.ny - 1), y1 = std::clamp(int((bhi.y - lo.y) / cxy), 0, grid.ny - 1);
+            for (int z = z0; z <= z1; ++z)
+                for (int y = y0; y <= y1; ++y)
+                    for (int x = x0; x <= x1; ++x) {
+                        size_t c = (size_t(z) * grid.ny + y) * grid.nx + x;
+                        if (grid.last[c] == pi) continue;
+                        grid.last[c] = pi;
+                        mark(c, pi);
+                    }
+        };
+        // A point's layer of cells is floor((z - lo.z) / cz): the pieces of horizontally sliced
+        // prisms are the parts between those layers' planes (widened far beyond rounding), each
+        // marking cells of its own layer only (pieces across two layers marked both).
+        const double pad = 1e-9 * (cz + std::fabs(lo.z) + std::fabs(hi.z));
         for (size_t pi = 0; pi < prisms.size(); ++pi) {
             const BeamPrism& P = prisms[pi];
             double h0, h1;
             span(P, &h0, &h1);
-            // pieces about a cell tall (horizontal slicing) or wide (grazing beams)
-            const double step = keys[pi].horizontal ? cz : cxy;
+            if (keys[pi].horizontal) {
+                const bool up = keys[pi].up;  // h = z going up, -z going down
+                const double zlo = up ? h0 : -h1, zhi = up ? h1 : -h0;
+                const int k0 = std::clamp(int(std::floor((zlo - lo.z) / cz)), 0, grid.nz - 1);
+                const int k1 = std::clamp(int(std::floor((zhi - lo.z) / cz)), 0, grid.nz - 1);
+                for (int k = k0; k <= k1; ++k) {
+                    const double za = lo.z + k * cz - pad, zb = lo.z + (k + 1) * cz + pad;
+                    const double ha = std::max(h0, up ? za : -zb), hb = std::min(h1, up ? zb : -za);
+                    if (!(ha <= hb)) continue;
+                    Vec3 blo, bhi;
+                    piece(P, ha, hb, &blo, &bhi);
+                    mark_box(uint32_t(pi), blo, bhi, k, k);
+                }
+                continue;
+            }
+            // pieces about a cell wide (grazing beams)
+            const double step = cxy;
             int pieces = std::max(1, std::min(100000, int(std::ceil((h1 - h0) / step))));
             for (int k = 0; k < pieces; ++k) {
                 double ha = h0 + (h1 - h0) * k / pieces, hb = h0 + (h1 - h0) * (k + 1) / pieces;
                 Vec3 blo, bhi;
                 piece(P, ha, hb, &blo, &bhi);
-                int x0 = std::clamp(int((blo.x - lo.x) / cxy), 0, grid.nx - 1), x1 = std::clamp(int((bhi.x - lo.x) / cxy), 0, grid.nx - 1);
-                int y0 = std::clamp(int((blo.y - lo.y) / cxy), 0, grid.ny - 1), y1 = std::clamp(int((bhi.y - lo.y) / cxy), 0, grid.ny - 1);
-                int z0 = std::clamp(int((blo.z - lo.z) / cz), 0, grid.nz - 1), z1 = std::clamp(int((bhi.z - lo.z) / cz), 0, grid.nz - 1);
-                for (int z = z0; z <= z1; ++z)
-                    for (int y = y0; y <= y1; ++y)
-                        for (int x = x0; x <= x1; ++x) {
-                            size_t c = (size_t(z) * grid.ny + y) * grid.nx + x;
-                            if (grid.last[c] == uint32_t(pi)) continue;
-                            grid.last[c] = uint32_t(pi);
-                            mark(c, uint32_t(pi));
-                        }
+                const int z0 = std::clamp(int((blo.z - lo.z) / cz), 0, grid.nz - 1);
+                const int z1 = std::clamp(int((bhi.z - lo.z) / cz), 0, grid.nz - 1);
+                mark_box(uint32_t(pi), blo, bhi, z0, z1);
             }
         }
     };
