@@ -31,6 +31,7 @@ struct SourceTri {
     Vec3 nf;             // face normal (air side)
     int water;
     bool periodic;
+    int64_t vid[3] = {-1, -1, -1};  // the ocean patch's vertices at the corners (-1: a mesh's)
 };
 
 }  // namespace
@@ -173,9 +174,14 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         for (size_t t = 0; t < nt; ++t) {
             const uint32_t* tri = &patch_triangles[3 * t];
             SourceTri st;
-            for (int j = 0; j < 3; ++j) { st.p[j] = V(tri[j]); st.n[j] = vn[tri[j]]; }
+            for (int j = 0; j < 3; ++j) { st.p[j] = V(tri[j]); st.n[j] = vn[tri[j]]; st.vid[j] = tri[j]; }
             st.nf = normalize(cross(st.p[1] - st.p[0], st.p[2] - st.p[0]));
-            if (st.nf.z < 0) { std::swap(st.p[1], st.p[2]); std::swap(st.n[1], st.n[2]); st.nf = -st.nf; }
+            if (st.nf.z < 0) {
+                std::swap(st.p[1], st.p[2]);
+                std::swap(st.n[1], st.n[2]);
+                std::swap(st.vid[1], st.vid[2]);
+                st.nf = -st.nf;
+            }
             st.water = ocean_water;
             st.periodic = true;
             if (dot(st.nf, s) > 0.0) src.push_back(st);
@@ -250,7 +256,10 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         r.hn = h.valid ? h.n : Vec3();
         return r;
     };
-    auto trace_vertex = [&](const Vec3& p, const Vec3& n, const Vec3& nf, int wi, bool rough, bool periodic) {
+    // (through: whether the sun refracts through the vertex's own normal; only then is the ray
+    // the same for every face around the vertex.)
+    auto trace_vertex = [&](const Vec3& p, const Vec3& n, const Vec3& nf, int wi, bool rough, bool periodic,
+                            bool* through_out = nullptr) {
         VertexRay r;
         r.p = p;
         r.n = n;
@@ -261,6 +270,7 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         double cs = dot(n, s), T;
         bool through = rough ? ocean_refraction(n, w.ior, &r.d, &T, facet_u1, facet_u2)
                              : cs > 0.0 && refract(-s, n, 1.0, w.ior, &r.d);
+        if (through_out) *through_out = through;
         if (through) {
             r.lit = periodic ? !occluded_ocean(p + n * off, s) : !occluded(p + n * off, s);
         } else if (!(rough ? ocean_refraction(nf, w.ior, &r.d, &T, facet_u1, facet_u2)
@@ -278,6 +288,33 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         r.hn = h.valid ? h.n : Vec3();
         return r;
     };
+
+    // The ocean patch's vertex rays, traced once per vertex rather than once per face around it
+    // (six in the patch's grid), where they do not depend on the face: where the sun refracts
+    // through the vertex's own normal.
+    std::vector<VertexRay> vrays;
+    std::vector<uint8_t> vshared;
+    if (ocean_water >= 0 && !ocean_flat) {
+        const size_t nv = patch_vertices.size() / 3;
+        vrays.resize(nv);
+        vshared.assign(nv, 0);
+        std::vector<uint8_t> used(nv, 0);  // (by a face that the sun lights)
+        for (const SourceTri& st : src)
+            for (int j = 0; j < 3; ++j)
+                if (st.vid[j] >= 0) used[size_t(st.vid[j])] = 1;
+        const size_t kBlock = 256;
+        parallel_for((nv + kBlock - 1) / kBlock, threads, [&](size_t b, int) {
+            for (size_t i = b * kBlock; i < std::min(nv, (b + 1) * kBlock); ++i) {
+                if (!used[i]) continue;
+                const Vec3 p(patch_vertices[3 * i], patch_vertices[3 * i + 1], patch_vertices[3 * i + 2]);
+                const Vec3 n = normalize(Vec3(patch_normals[3 * i], patch_normals[3 * i + 1], patch_normals[3 * i + 2]));
+                bool through = false;
+                // (the face normal only matters where the ray does not go through)
+                vrays[i] = trace_vertex(p, n, Vec3(0, 0, 1), ocean_water, ocean_rough, true, &through);
+                vshared[i] = through;
+            }
+        });
+    }
 
     // Per source triangle, adaptive subdivision into prisms (in parallel, merged in order):
     // the refracted sun's in the water, then (air) the reflected sun's in the air, from the
@@ -299,9 +336,15 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             Item it = stack.back();
             stack.pop_back();
             VertexRay r[3];
-            for (int j = 0; j < 3; ++j)
-                r[j] = air ? trace_vertex_air(it.p[j], it.n[j], st.nf, st.periodic)
-                           : trace_vertex(it.p[j], it.n[j], st.nf, st.water, rough, st.periodic);
+            for (int j = 0; j < 3; ++j) {
+                const int64_t vid = it.level == 0 ? st.vid[j] : -1;
+                if (air)
+                    r[j] = trace_vertex_air(it.p[j], it.n[j], st.nf, st.periodic);
+                else if (vid >= 0 && vshared[size_t(vid)])
+                    r[j] = vrays[size_t(vid)];
+                else
+                    r[j] = trace_vertex(it.p[j], it.n[j], st.nf, st.water, rough, st.periodic);
+            }
             int lit = int(r[0].lit) + int(r[1].lit) + int(r[2].lit);
             if (lit == 0) continue;
             // One prism is right only if its three rays end on one plane of one object; else
