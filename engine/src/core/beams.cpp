@@ -244,13 +244,13 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         const double off = offset_for(p);
         r.d = reflect(-s, n);
         if (dot(n, s) > 0.0 && dot(r.d, nf) > 0.0) {
-            r.lit = periodic ? !occluded_ocean(p + n * off, s) : !occluded(p + n * off, s);
+            r.lit = periodic ? !occluded_ocean(p + n * off, s, Side::kAbove) : !occluded(p + n * off, s);
         } else {
             r.d = reflect(-s, nf);
         }
         const Vec3 o = p + nf * off;
         const double cap = air_cap(o, r.d);
-        Hit h = periodic ? intersect_ocean(o, r.d, cap) : intersect(o, r.d, cap);
+        Hit h = periodic ? intersect_ocean(o, r.d, cap, Side::kAbove) : intersect(o, r.d, cap);
         r.len = h.valid ? h.t + off : cap;
         r.id = h.valid ? h.id : -1;
         r.hn = h.valid ? h.n : Vec3();
@@ -272,7 +272,7 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
                              : cs > 0.0 && refract(-s, n, 1.0, w.ior, &r.d);
         if (through_out) *through_out = through;
         if (through) {
-            r.lit = periodic ? !occluded_ocean(p + n * off, s) : !occluded(p + n * off, s);
+            r.lit = periodic ? !occluded_ocean(p + n * off, s, Side::kAbove) : !occluded(p + n * off, s);
         } else if (!(rough ? ocean_refraction(nf, w.ior, &r.d, &T, facet_u1, facet_u2)
                            : refract(-s, nf, 1.0, w.ior, &r.d))) {
             // Unlit: the sun grazes the vertex's normal from behind. Its ray follows the sun
@@ -282,7 +282,7 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             // the light is.
             r.d = -n;
         }
-        Hit h = periodic ? intersect_ocean(p - n * off, r.d, cap) : intersect(p - n * off, r.d, cap);
+        Hit h = periodic ? intersect_ocean(p - n * off, r.d, cap, Side::kBelow) : intersect(p - n * off, r.d, cap);
         r.len = h.valid ? h.t + off : cap;
         r.id = h.valid ? h.id : -1;
         r.hn = h.valid ? h.n : Vec3();
@@ -878,7 +878,7 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
         } else if (P.periodic) {
             if (meshes_block(q, beam_sun_dir, 0.0, kInf)) return false;
             // Wave-shaded corners: the surface's own shadow (else the build's lit test says).
-            if (P.partial_lit && occluded_ocean(q, beam_sun_dir)) return false;
+            if (P.partial_lit && occluded_ocean(q, beam_sun_dir, Side::kAbove)) return false;
         } else if (occluded(q, beam_sun_dir)) {
             return false;
         }

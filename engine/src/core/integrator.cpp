@@ -221,7 +221,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
             walk.begin(w, o, d);
             // A clipped ray's rest, from t on (what lies beyond the bound was unknown).
             auto intersect_rest = [&](double t) {
-                h = intersect(o + d * t, d);
+                h = intersect(o + d * t, d, kInf, ocean_side(medium));
                 c.segments++;
                 clipped = false;
                 if (h.valid) h.t += t;
@@ -232,7 +232,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
             const bool short_ray = !hybrid && walk.can_clip();
             t_hit = kInf;
             const double t_cast = walk.before_cast(rng, short_ray);
-            h = intersect(o, d, t_cast);
+            h = intersect(o, d, t_cast, ocean_side(medium));
             clipped = short_ray && !h.valid;  // nothing before t_cast; what lies beyond is unknown
             c.segments++;
             t_hit = h.valid ? h.t : kInf;
@@ -384,7 +384,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                         pb_b = beam_direction_pdf(w, bd, wb);
                     }
                     if (pa_b > 0.0) {
-                        Hit hb = intersect(o, wb);
+                        Hit hb = intersect(o, wb, kInf, ocean_side(medium));
                         c.segments++;
                         double tb, pdf;
                         if (beam_scatter_point(w, wb, hb.valid ? hb.t : kInf, rng, &tb, &pdf)) {
@@ -407,7 +407,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
             walk.end_at(h.valid ? t_hit : kInf, t_cur, &out.beam_volume);
             if (!h.valid) return out;  // lost in infinitely deep water
         } else {
-            h = intersect(o, d);
+            h = intersect(o, d, kInf, Side::kAbove);  // (in the air)
             c.segments++;
             t_hit = h.valid ? h.t : kInf;
         }
@@ -435,7 +435,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 double cs = dot(n, ws);
                 if (cs > 0.0) {
                     c.shadow_rays++;
-                    if (!occluded(xo, ws)) {
+                    if (!occluded(xo, ws, Side::kAbove)) {
                         double f = cs * kInvPi / sun_pdf();
                         for (int k = 0; k < nb; ++k)
                             out.path.v[k] += beta.v[k] * m.reflectance.v[k] * sun_radiance.v[k] * f;
@@ -507,7 +507,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 }
                 if (cb > 0.0) {
                     double pa_b = cb * kInvPi, pb_b = beam_direction_pdf(w, bd, wb);
-                    Hit hb = intersect(xo, wb);
+                    Hit hb = intersect(xo, wb, kInf, ocean_side(medium));
                     c.segments++;
                     double tb, pdf;
                     if (beam_scatter_point(w, wb, hb.valid ? hb.t : kInf, rng, &tb, &pdf)) {
@@ -544,7 +544,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                     double f = ocean_bsdf.eval(wi, wsl, RoughInterface::kRadiance);
                     if (f > 0.0) {
                         c.shadow_rays++;
-                        if (!occluded(x + h.n * off, ws)) {
+                        if (!occluded(x + h.n * off, ws, Side::kAbove)) {
                             double g = f * wsl.z / sun_pdf();
                             for (int k = 0; k < nb; ++k) out.path.v[k] += beta.v[k] * sun_radiance.v[k] * g;
                         }
@@ -859,7 +859,7 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
         double resp = response(wb);
         if (resp > 0.0) {
             double pa_b = mixture(wb), pb_b = beam_direction_pdf(wat, bd, wb);
-            Hit hb = intersect(r.position, wb);
+            Hit hb = intersect(r.position, wb, kInf, ocean_side(r.medium));
             c.segments++;
             Spectrum I;
             beam_scatter_along(r.position, wb, hb.valid ? hb.t : kInf, r.medium, rng, &I);
@@ -879,7 +879,7 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
         double resp = response(ws);
         if (resp > 0.0) {
             c.shadow_rays++;
-            if (!occluded(r.position, ws))
+            if (!occluded(r.position, ws, Side::kAbove))
                 for (int k = 0; k < nbands; ++k) out[3].v[k] += resp * sun_radiance.v[k] / sun_pdf();
         }
     }

@@ -166,6 +166,9 @@ public:
     // the mesh (smooth_patch_normals). Beams and paths both refract about them.
     std::vector<float> patch_normals;
     double patch_x0 = 0, patch_y0 = 0, patch_lx = 1, patch_ly = 1, patch_zmin = 0, patch_zmax = 0;
+    // The steepest facet's slope |grad z| (made at commit; inf unless the patch is a height
+    // field: every facet facing up, their shadows covering one period once).
+    double patch_slope_max = kInf;
     bool has_bottom = false;
     double bottom_z = 0.0;
     int bottom_material = -1;
@@ -233,12 +236,19 @@ public:
     void commit();                    // builds the BVHs and resolves sensor media
 
     // --- queries ----------------------------------------------------------------
-    Hit intersect(const Vec3& o, const Vec3& d, double tmax = kInf) const;  // closest hit before tmax
-    bool occluded(const Vec3& o, const Vec3& d) const;  // to infinity
+    // Which side of the ocean patch's surface a ray starts on, where the caller knows it (from
+    // the medium it is in): a ray that leaves the surface more steeply than any facet rises
+    // cannot meet it, and intersect_patch then skips the tiles.
+    enum class Side : int { kUnknown = 0, kAbove = 1, kBelow = -1 };
+    Side ocean_side(int medium) const {
+        return medium < 0 ? Side::kAbove : medium == ocean_water ? Side::kBelow : Side::kUnknown;
+    }
+    Hit intersect(const Vec3& o, const Vec3& d, double tmax = kInf, Side side = Side::kUnknown) const;  // closest hit before tmax
+    bool occluded(const Vec3& o, const Vec3& d, Side side = Side::kUnknown) const;  // to infinity
     // The same without the meshes: only the ocean's surface and bottom, which repeat with the
     // patch's period (the periodic beams are traced against these alone).
-    Hit intersect_ocean(const Vec3& o, const Vec3& d, double tmax = kInf) const;
-    bool occluded_ocean(const Vec3& o, const Vec3& d) const;
+    Hit intersect_ocean(const Vec3& o, const Vec3& d, double tmax = kInf, Side side = Side::kUnknown) const;
+    bool occluded_ocean(const Vec3& o, const Vec3& d, Side side = Side::kUnknown) const;
     // Whether a mesh (opaque or water boundary) lies on the segment o + t d, tnear < t < tfar;
     // false at once when the segment misses the meshes' bounding box.
     bool meshes_block(const Vec3& o, const Vec3& d, double tnear, double tfar) const;
@@ -327,7 +337,7 @@ public:
     std::atomic<bool> cancel_flag{false};
     double scene_extent() const { return extent_; }
 
-    bool intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit) const;
+    bool intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit, Side side = Side::kUnknown) const;
     void smooth_patch_normals();  // patch_normals from the mesh (area weighted, seams shared)
     // Beam of prism P at y (primary-patch frame; `world` is the same point unshifted).
     bool prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, BeamSample* out,
