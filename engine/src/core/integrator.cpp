@@ -160,8 +160,8 @@ void Scene::settle_beam_terms(BeamTerms& b, Spectrum* volume) const {
     // evaluated and added in order.
     auto vec = [](const double* v) { return Vec3(v[0], v[1], v[2]); };
     auto point = [&](const BeamTerms::Term& e) { return vec(e.o) + vec(e.d) * e.t; };
-    for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), 0);
-    for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), 1);
+    for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), b.terms[i].medium, 0);
+    for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), b.terms[i].medium, 1);
     thread_local std::vector<BeamCandidate> found;  // per thread: kept, so rarely grown
     found.clear();
     size_t first[BeamTerms::kMax + 1];

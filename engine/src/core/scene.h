@@ -375,26 +375,37 @@ private:
     Components trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
                           Counters& c, double first_beam_weight, bool camera, bool reflect_covered,
                           BeamTerms& terms) const;
-    // Starts fetching the water beams' grid cell at x (a hint: a later lookup there then finds
-    // it in the cache; the cell by multiplications, which may differ from lookup's at a cell's
-    // edge; for a periodic patch, x's own period only). stage 1: reads that cell and fetches
-    // its candidates' keys (after stage 0 for many points in turn, so that their misses
-    // overlap). Always inlined: GCC's link-time optimisation takes an out-of-line function
-    // that only reads memory and prefetches for one without effects, and drops its calls.
-    __attribute__((always_inline)) void prefetch_beams(const Vec3& x, int stage) const {
+    // Starts fetching the water beams' grid cells at x in `medium` (a hint: a later lookup
+    // there then finds them in the cache; the cells by multiplications, which may differ from
+    // lookup's at a cell's edge): below the periodic patch, the cells of x's images in every
+    // period the grid covers, as lookup visits them (paths soon leave the primary period).
+    // stage 1: reads those cells and fetches their candidates' keys (after stage 0 for many
+    // points in turn, so that their misses overlap). Always inlined: GCC's link-time
+    // optimisation takes an out-of-line function that only reads memory and prefetches for
+    // one without effects, and drops its calls.
+    __attribute__((always_inline)) void prefetch_beams(const Vec3& x, int medium, int stage) const {
         const BeamGrid& grid = grid_;
         if (grid.nx == 0) return;
-        const double fx = (x.x + grid.sx * x.z - grid.lo.x) * grid.inv_cell.x;
-        const double fy = (x.y + grid.sy * x.z - grid.lo.y) * grid.inv_cell.y;
+        double fx = (x.x + grid.sx * x.z - grid.lo.x) * grid.inv_cell.x;
+        double fy = (x.y + grid.sy * x.z - grid.lo.y) * grid.inv_cell.y;
         const double fz = (x.z - grid.lo.z) * grid.inv_cell.z;
-        if (!(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < grid.nx && fy < grid.ny && fz < grid.nz)) return;
-        const uint32_t* rec =
-            &grid.cells[((size_t(fz) * grid.ny + size_t(fy)) * grid.nx + size_t(fx)) * BeamGrid::kCellWords];
-        if (stage == 0) {
-            __builtin_prefetch(rec);
-            return;
+        if (!(fz >= 0.0 && fz < grid.nz)) return;
+        double px = kInf, py = kInf;  // the period in cells (inf: the point itself only)
+        if (medium == ocean_water && !ocean_flat) {
+            px = patch_lx * grid.inv_cell.x;
+            py = patch_ly * grid.inv_cell.y;
+            fx -= std::floor(fx / px) * px;  // the image in [0, px), then those above it
+            fy -= std::floor(fy / py) * py;
         }
-        prefetch_cell_keys(grid, rec, prism_keys_);
+        const size_t layer = size_t(fz) * grid.ny;
+        for (double gy = fy; gy >= 0.0 && gy < grid.ny; gy += py)
+            for (double gx = fx; gx >= 0.0 && gx < grid.nx; gx += px) {
+                const uint32_t* rec = &grid.cells[((layer + size_t(gy)) * grid.nx + size_t(gx)) * BeamGrid::kCellWords];
+                if (stage == 0)
+                    __builtin_prefetch(rec);
+                else
+                    prefetch_cell_keys(grid, rec, prism_keys_);
+            }
     }
     struct BeamGrid {  // uniform grid over prism pieces (primary patch frame, sheared)
         double sx = 0.0, sy = 0.0;  // cell (i, j, k) holds u = x + sx z, v = y + sy z, z
