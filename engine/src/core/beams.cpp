@@ -65,102 +65,30 @@ void make_room(V& v, size_t n) {
 
 }  // namespace
 
-void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2) {
-    prisms.clear();
-    air_prisms.clear();
-    flat_beam = false;
-    flat_air_beam = false;
-    flat_d.clear();
-    flat_e0.clear();
-    grid_.clear();
-    air_grid_.clear();
-    if (!has_sun) return;
-    const Vec3 s = normalize(sun_direction);
-    beam_sun_dir = s;
-    {   // refracted sun below a level surface, for sampling along segments
-        double n = waters.empty() ? 1.34 : waters[ocean_water >= 0 ? ocean_water : 0].ior;
-        double sin_t = std::sqrt(std::max(0.0, 1.0 - s.z * s.z)) / n;
-        beam_mu_w = std::max(0.05, std::sqrt(std::max(0.0, 1.0 - sin_t * sin_t)));
-    }
-    const double alpha = std::acos(std::clamp(sun_cos_half, -1.0, 1.0));
-    // Irradiance normal to the sun per band (uniform disk): L pi sin^2(alpha).
-    Spectrum e_sun;
-    // Each direction of the disk carries L dw, so a beam built for one direction drawn
-    // uniformly in the disk carries L times the disk's solid angle (normal to itself).
-    for (int k = 0; k < nbands; ++k) e_sun.v[k] = sun_radiance.v[k] * 2.0 * kPi * (1.0 - std::cos(alpha));
-
-    // Refraction of the sun through the ocean surface with local normal n: the direction and
-    // the transmitted fraction of the flux arriving on the macro surface. A rough surface
-    // refracts through this build's facet (the same facet relative to every local normal),
-    // weighted so that the expectation over builds is the rough BTDF's transmission.
-    auto ocean_refraction = [&](const Vec3& n, double ior, Vec3* d, double* T,
-                                double u1, double u2) -> bool {
-        if (!(dot(n, s) > 0.0)) return false;
-        if (!ocean_rough) {
-            if (!refract(-s, n, 1.0, ior, d)) return false;
-            *T = 1.0 - fresnel_unpolarized(dot(n, s), 1.0, ior);
-            return true;
-        }
-        const Frame fr(n);
-        RoughSample rs = ocean_bsdf.sample(fr.to_local(s), u1, u2, 1.0, RoughInterface::kImportance);
-        if (!rs.valid || rs.reflection) return false;
-        *d = fr.to_world(rs.wo);
-        *T = (1.0 - rs.fresnel) * rs.weight;  // transmission was forced: its probability 1 - F
+// Refraction of the sun (towards s) through the ocean surface with local normal n: the
+// direction and the transmitted fraction of the flux arriving on the macro surface. A rough
+// surface refracts through the build's facet (the same facet relative to every local normal),
+// weighted so that the expectation over builds is the rough BTDF's transmission.
+bool Scene::refract_sun(const Vec3& s, const Vec3& n, double ior, Vec3* d, double* T, double u1, double u2) const {
+    if (!(dot(n, s) > 0.0)) return false;
+    if (!ocean_rough) {
+        if (!refract(-s, n, 1.0, ior, d)) return false;
+        *T = 1.0 - fresnel_unpolarized(dot(n, s), 1.0, ior);
         return true;
+    }
+    const Frame fr(n);
+    RoughSample rs = ocean_bsdf.sample(fr.to_local(s), u1, u2, 1.0, RoughInterface::kImportance);
+    if (!rs.valid || rs.reflection) return false;
+    *d = fr.to_world(rs.wo);
+    *T = (1.0 - rs.fresnel) * rs.weight;  // transmission was forced: its probability 1 - F
+    return true;
+}
+
+void Scene::make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int threads, double facet_u1,
+                        double facet_u2, HugeVector<BeamPrism>* dest) {
+    auto ocean_refraction = [&](const Vec3& n, double ior, Vec3* d, double* T, double u1, double u2) {
+        return refract_sun(s, n, ior, d, T, u1, u2);
     };
-
-    if (ocean_water >= 0 && ocean_flat && s.z > 0.0) {
-        // A rough flat sea: kRoughFlatBeams facets, stratified in the facet's slope radius and
-        // rotated by the golden angle, each carrying its share of the flux.
-        const Water& w = waters[ocean_water];
-        const int nf = ocean_rough ? kRoughFlatBeams : 1;
-        for (int i = 0; i < nf; ++i) {
-            double u1 = ocean_rough ? (i + facet_u1) / nf : facet_u1;
-            double u2 = std::fmod(facet_u2 + i * 0.6180339887498949, 1.0);
-            Vec3 d;
-            double T;
-            if (!ocean_refraction(Vec3(0, 0, 1), w.ior, &d, &T, u1, u2)) continue;
-            Spectrum e0;
-            for (int k = 0; k < nbands; ++k) e0.v[k] = e_sun.v[k] * s.z * T / (-d.z) / nf;
-            flat_d.push_back(d);
-            flat_e0.push_back(e0);
-        }
-        flat_beam = !flat_d.empty();
-        if (w.grid) {
-            // One shadow map per render, around the refracted centre of the sun: the passes'
-            // directions lie within the refracted disk, whose radius is at most the sun's
-            // (refraction into denser water narrows angles); a rough sea's facets spread the
-            // directions by a few degrees more (a facet outside the map's cone walks always).
-            Vec3 centre;
-            const double spread = 1.001 * alpha + 1e-9 + (ocean_rough ? kRoughShadeSpread : 0.0);
-            if (refract(-sun_dir, Vec3(0, 0, 1), 1.0, w.ior, &centre)) {
-                VoxelGrid::ShadowMap& m = flat_shade;
-                if (!(m.spread == spread && dot(m.up, -centre) >= 1.0 - 1e-12))  // (else built)
-                    w.grid->shadow_map(-centre, spread, &m, threads);
-                flat_shade_ok.assign(flat_d.size(), 0);
-                for (size_t i = 0; i < flat_d.size(); ++i)
-                    flat_shade_ok[i] = dot(m.up, -flat_d[i]) >= std::cos(m.spread);
-            } else {
-                flat_shade_ok.clear();
-            }
-        } else {
-            flat_shade_ok.clear();
-        }
-    }
-
-    // The sun reflected into the air by smooth water surfaces lights what stands in the air:
-    // built only where opaque objects or radiometers are there to be lit.
-    bool need_air = false;
-    for (const auto& m : meshes) need_air = need_air || m.kind == SurfaceKind::kOpaque;
-    for (const auto& r : radiometers) need_air = need_air || r.medium < 0;
-    if (need_air && ocean_water >= 0 && ocean_flat && !ocean_rough && s.z > 0.0) {
-        // A smooth flat sea: the mirror image of the sun, its irradiance normal to itself F E.
-        const double F = fresnel_unpolarized(s.z, 1.0, waters[ocean_water].ior);
-        flat_air_d = Vec3(-s.x, -s.y, s.z);
-        for (int k = 0; k < nbands; ++k) flat_air_e.v[k] = e_sun.v[k] * F;
-        flat_air_beam = F > 0.0;
-    }
-
     // Source triangles: the ocean patch (with its vertex normals) and the sun-facing faces of
     // closed water meshes (face normals).
     std::vector<SourceTri> src;
@@ -294,7 +222,7 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
     // through the vertex's own normal.
     std::vector<VertexRay> vrays;
     std::vector<uint8_t> vshared;
-    if (ocean_water >= 0 && !ocean_flat) {
+    if (!air && ocean_water >= 0 && !ocean_flat) {
         const size_t nv = patch_vertices.size() / 3;
         vrays.resize(nv);
         vshared.assign(nv, 0);
@@ -319,7 +247,6 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
     // Per source triangle, adaptive subdivision into prisms (in parallel, merged in order):
     // the refracted sun's in the water, then (air) the reflected sun's in the air, from the
     // smooth surfaces (a rough sea's reflection is sampled by its BSDF instead).
-    auto make_prisms = [&](bool air, HugeVector<BeamPrism>* dest) {
     // Per source triangle, its prisms (lists kept from pass to pass: freed, their megabytes
     // came back as fresh pages to be zeroed by the kernel in every build).
     std::vector<std::vector<BeamPrism>>& out = prism_lists_;
@@ -439,9 +366,90 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
     make_room(*dest, total);
     for (size_t ti = 0; ti < src.size(); ++ti)
         for (const BeamPrism& p : out[ti]) dest->push_back(p);
+}
+
+void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2) {
+    prisms.clear();
+    air_prisms.clear();
+    flat_beam = false;
+    flat_air_beam = false;
+    flat_d.clear();
+    flat_e0.clear();
+    grid_.clear();
+    air_grid_.clear();
+    if (!has_sun) return;
+    const Vec3 s = normalize(sun_direction);
+    beam_sun_dir = s;
+    {   // refracted sun below a level surface, for sampling along segments
+        double n = waters.empty() ? 1.34 : waters[ocean_water >= 0 ? ocean_water : 0].ior;
+        double sin_t = std::sqrt(std::max(0.0, 1.0 - s.z * s.z)) / n;
+        beam_mu_w = std::max(0.05, std::sqrt(std::max(0.0, 1.0 - sin_t * sin_t)));
+    }
+    const double alpha = std::acos(std::clamp(sun_cos_half, -1.0, 1.0));
+    // Irradiance normal to the sun per band (uniform disk): L pi sin^2(alpha).
+    Spectrum e_sun;
+    // Each direction of the disk carries L dw, so a beam built for one direction drawn
+    // uniformly in the disk carries L times the disk's solid angle (normal to itself).
+    for (int k = 0; k < nbands; ++k) e_sun.v[k] = sun_radiance.v[k] * 2.0 * kPi * (1.0 - std::cos(alpha));
+
+    auto ocean_refraction = [&](const Vec3& n, double ior, Vec3* d, double* T, double u1, double u2) {
+        return refract_sun(s, n, ior, d, T, u1, u2);
     };
-    make_prisms(false, &prisms);
-    if (need_air) make_prisms(true, &air_prisms);
+
+    if (ocean_water >= 0 && ocean_flat && s.z > 0.0) {
+        // A rough flat sea: kRoughFlatBeams facets, stratified in the facet's slope radius and
+        // rotated by the golden angle, each carrying its share of the flux.
+        const Water& w = waters[ocean_water];
+        const int nf = ocean_rough ? kRoughFlatBeams : 1;
+        for (int i = 0; i < nf; ++i) {
+            double u1 = ocean_rough ? (i + facet_u1) / nf : facet_u1;
+            double u2 = std::fmod(facet_u2 + i * 0.6180339887498949, 1.0);
+            Vec3 d;
+            double T;
+            if (!ocean_refraction(Vec3(0, 0, 1), w.ior, &d, &T, u1, u2)) continue;
+            Spectrum e0;
+            for (int k = 0; k < nbands; ++k) e0.v[k] = e_sun.v[k] * s.z * T / (-d.z) / nf;
+            flat_d.push_back(d);
+            flat_e0.push_back(e0);
+        }
+        flat_beam = !flat_d.empty();
+        if (w.grid) {
+            // One shadow map per render, around the refracted centre of the sun: the passes'
+            // directions lie within the refracted disk, whose radius is at most the sun's
+            // (refraction into denser water narrows angles); a rough sea's facets spread the
+            // directions by a few degrees more (a facet outside the map's cone walks always).
+            Vec3 centre;
+            const double spread = 1.001 * alpha + 1e-9 + (ocean_rough ? kRoughShadeSpread : 0.0);
+            if (refract(-sun_dir, Vec3(0, 0, 1), 1.0, w.ior, &centre)) {
+                VoxelGrid::ShadowMap& m = flat_shade;
+                if (!(m.spread == spread && dot(m.up, -centre) >= 1.0 - 1e-12))  // (else built)
+                    w.grid->shadow_map(-centre, spread, &m, threads);
+                flat_shade_ok.assign(flat_d.size(), 0);
+                for (size_t i = 0; i < flat_d.size(); ++i)
+                    flat_shade_ok[i] = dot(m.up, -flat_d[i]) >= std::cos(m.spread);
+            } else {
+                flat_shade_ok.clear();
+            }
+        } else {
+            flat_shade_ok.clear();
+        }
+    }
+
+    // The sun reflected into the air by smooth water surfaces lights what stands in the air:
+    // built only where opaque objects or radiometers are there to be lit.
+    bool need_air = false;
+    for (const auto& m : meshes) need_air = need_air || m.kind == SurfaceKind::kOpaque;
+    for (const auto& r : radiometers) need_air = need_air || r.medium < 0;
+    if (need_air && ocean_water >= 0 && ocean_flat && !ocean_rough && s.z > 0.0) {
+        // A smooth flat sea: the mirror image of the sun, its irradiance normal to itself F E.
+        const double F = fresnel_unpolarized(s.z, 1.0, waters[ocean_water].ior);
+        flat_air_d = Vec3(-s.x, -s.y, s.z);
+        for (int k = 0; k < nbands; ++k) flat_air_e.v[k] = e_sun.v[k] * F;
+        flat_air_beam = F > 0.0;
+    }
+
+    make_prisms(s, e_sun, false, threads, facet_u1, facet_u2, &prisms);
+    if (need_air) make_prisms(s, e_sun, true, threads, facet_u1, facet_u2, &air_prisms);
     build_grid(prisms, &prism_keys_, &grid_);
     build_grid(air_prisms, &air_keys_, &air_grid_);
 }

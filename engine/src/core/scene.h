@@ -457,6 +457,13 @@ private:
     }
     HugeVector<PrismKey> prism_keys_;
     std::vector<std::vector<BeamPrism>> prism_lists_;  // build_beams' per-triangle lists (kept)
+    // The sun (towards s) refracted through the ocean surface with local normal n (a rough sea
+    // through the build's facet u1, u2): the direction d and the transmitted fraction T.
+    bool refract_sun(const Vec3& s, const Vec3& n, double ior, Vec3* d, double* T, double u1, double u2) const;
+    // build_beams' prisms for the sun towards s (e_sun: its irradiance normal to itself),
+    // appended to dest: refracted into the water, or (air) reflected into the air.
+    void make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int threads, double facet_u1, double facet_u2,
+                     HugeVector<BeamPrism>* dest);
     BeamGrid air_grid_;
     HugeVector<PrismKey> air_keys_;
     static void build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys, BeamGrid* grid);
