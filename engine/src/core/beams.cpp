@@ -450,8 +450,25 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
 
     make_prisms(s, e_sun, false, threads, facet_u1, facet_u2, &prisms);
     if (need_air) make_prisms(s, e_sun, true, threads, facet_u1, facet_u2, &air_prisms);
-    build_grid(prisms, &prism_keys_, &grid_);
-    build_grid(air_prisms, &air_keys_, &air_grid_);
+    // The water beams' grid: the reference's, when these prisms fit it, else their own.
+    make_keys(prisms, &prism_keys_);
+    water_grid_ = &grid_;
+    if (grid_reference_allowed()) {
+        const GridReference& ref = grid_ref_;
+        if (!(ref.built && ref.sun.x == sun_dir.x && ref.sun.y == sun_dir.y && ref.sun.z == sun_dir.z &&
+              ref.cos_half == sun_cos_half))
+            build_grid_reference(e_sun, threads);
+        double sx, sy;
+        grid_shear(prism_keys_, &sx, &sy);
+        if (ref.usable && grid_reference_fits(sx, sy)) {
+            grid_ref_.grid.sx = sx;
+            grid_ref_.grid.sy = sy;
+            water_grid_ = &grid_ref_.grid;
+        }
+    }
+    if (water_grid_ == &grid_) build_grid(prisms, prism_keys_, &grid_);
+    make_keys(air_prisms, &air_keys_);
+    build_grid(air_prisms, air_keys_, &air_grid_);
 }
 
 namespace {
@@ -622,10 +639,8 @@ void Scene::set_prism_checks(BeamPrism* P, bool uniform, bool ends_on_surface) c
     P->check_sun = first_opaque_box(boxes, tol, Vec3(), Vec3(), 0.0) >= 0;
 }
 
-void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys_out, BeamGrid* grid_out) {
+void Scene::make_keys(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys_out) {
     HugeVector<PrismKey>& keys = *keys_out;
-    BeamGrid& grid = *grid_out;
-    grid.clear();
     make_room(keys, prisms.size());
     keys.resize(prisms.size());
     for (size_t pi = 0; pi < prisms.size(); ++pi) {
@@ -642,25 +657,41 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>
             K.ay[j] = P.v[j].y - K.by[j] * P.mv[j];
         }
     }
-    if (prisms.empty()) return;
+}
+
+void Scene::grid_shear(const HugeVector<PrismKey>& keys, double* sx, double* sy) {
     // The grid is sheared along the beams' typical drift (sx, sy) per metre of depth (the
     // median over the horizontally sliced prisms' rays): in coordinates u = x + sx z,
     // v = y + sy z, z a prism stands nearly upright, so cells can be tall (few marks per
     // prism) and narrow (few candidates per query) at once. (A key's b is the drift per unit
     // of h: h = -z going down, z going up.)
-    auto dxdz = [](const PrismKey& K, int j) { return K.up ? K.bx[j] : -K.bx[j]; };
-    auto dydz = [](const PrismKey& K, int j) { return K.up ? K.by[j] : -K.by[j]; };
     std::vector<double> bxs, bys;
     for (const PrismKey& K : keys)
         if (K.horizontal) {
-            bxs.push_back(-dxdz(K, 0));
-            bys.push_back(-dydz(K, 0));
+            bxs.push_back(K.up ? -K.bx[0] : K.bx[0]);
+            bys.push_back(K.up ? -K.by[0] : K.by[0]);
         }
     auto median = [](std::vector<double>& v) {
         std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
         return v[v.size() / 2];
     };
-    const double sx = bxs.empty() ? 0.0 : median(bxs), sy = bys.empty() ? 0.0 : median(bys);
+    *sx = bxs.empty() ? 0.0 : median(bxs);
+    *sy = bys.empty() ? 0.0 : median(bys);
+}
+
+void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, BeamGrid* grid_out,
+                       double margin) {
+    BeamGrid& grid = *grid_out;
+    grid.clear();
+    if (prisms.empty()) return;
+    double sx, sy;
+    grid_shear(keys, &sx, &sy);
+    auto dxdz = [](const PrismKey& K, int j) { return K.up ? K.bx[j] : -K.bx[j]; };
+    auto dydz = [](const PrismKey& K, int j) { return K.up ? K.by[j] : -K.by[j]; };
+    auto median = [](std::vector<double>& v) {
+        std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+        return v[v.size() / 2];
+    };
     grid.sx = sx;
     grid.sy = sy;
     // Each prism is cut into pieces along its slicing axis; the box (in the sheared frame) of
@@ -708,6 +739,8 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>
     }
     const double width = median(widths);
     const double drift = drifts.empty() ? 1.0 : median(drifts);
+    lo = lo - Vec3(margin, margin, 0.0);
+    hi = hi + Vec3(margin, margin, 0.0);
     Vec3 ext = hi - lo;
     // Cells: across, a typical prism's width; tall enough that a typical prism drifts by half
     // of that in one cell (narrower or shorter cells: no faster in the stepped pool). Not so
@@ -745,8 +778,10 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>
         make_room(grid.last, ncell);
         grid.last.assign(ncell, ~uint32_t(0));
         auto mark_box = [&](uint32_t pi, const Vec3& blo, const Vec3& bhi, int z0, int z1) {
-            int x0 = std::clamp(int((blo.x - lo.x) / cxy), 0, grid.nx - 1), x1 = std::clamp(int((bhi.x - lo.x) / cxy), 0, grid.nx - 1);
-            int y0 = std::clamp(int((blo.y - lo.y) / cxy), 0, grid.ny - 1), y1 = std::clamp(int((bhi.y - lo.y) / cxy), 0, grid.ny - 1);
+            int x0 = std::clamp(int((blo.x - margin - lo.x) / cxy), 0, grid.nx - 1);
+            int x1 = std::clamp(int((bhi.x + margin - lo.x) / cxy), 0, grid.nx - 1);
+            int y0 = std::clamp(int((blo.y - margin - lo.y) / cxy), 0, grid.ny - 1);
+            int y1 = std::clamp(int((bhi.y + margin - lo.y) / cxy), 0, grid.ny - 1);
             for (int z = z0; z <= z1; ++z)
                 for (int y = y0; y <= y1; ++y)
                     for (int x = x0; x <= x1; ++x) {
@@ -908,7 +943,7 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool ex
     if (max <= 0) return 0;
     const int n = flat_beams_at(x, medium, out, max, exact);
     if (medium < 0) return lookup(air_prisms, air_keys_, air_grid_, x, -1, out, n, max, exact);
-    return lookup(prisms, prism_keys_, grid_, x, medium, out, n, max, exact);
+    return lookup(prisms, prism_keys_, *water_grid_, x, medium, out, n, max, exact);
 }
 
 int Scene::flat_beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool exact) const {

@@ -167,7 +167,7 @@ void Scene::settle_beam_terms(BeamTerms& b, Spectrum* volume) const {
     size_t first[BeamTerms::kMax + 1];
     for (int i = 0; i < b.n; ++i) {
         first[i] = found.size();
-        find_candidates(prisms, prism_keys_, grid_, point(b.terms[i]), b.terms[i].medium, &found);
+        find_candidates(prisms, prism_keys_, *water_grid_, point(b.terms[i]), b.terms[i].medium, &found);
     }
     first[b.n] = found.size();
     thread_local BeamSample beams[kMaxBeams];  // (as beam_scatter_along's)

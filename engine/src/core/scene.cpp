@@ -80,6 +80,7 @@ double height_field_slope(const std::vector<float>& v, const std::vector<uint32_
 }  // namespace
 
 void Scene::commit() {
+    grid_ref_.built = false;  // (its prisms came from the geometry before)
     if (nbands < 1 || nbands > kMaxBands) throw std::invalid_argument("nbands must be in 1..16");
     std::vector<const MeshRecord*> ptrs;
     Vec3 lo(kInf, kInf, kInf), hi(-kInf, -kInf, -kInf);

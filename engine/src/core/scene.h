@@ -384,7 +384,7 @@ private:
     // optimisation takes an out-of-line function that only reads memory and prefetches for
     // one without effects, and drops its calls.
     __attribute__((always_inline)) void prefetch_beams(const Vec3& x, int medium, int stage) const {
-        const BeamGrid& grid = grid_;
+        const BeamGrid& grid = *water_grid_;
         if (grid.nx == 0) return;
         double fx = (x.x + grid.sx * x.z - grid.lo.x) * grid.inv_cell.x;
         double fy = (x.y + grid.sy * x.z - grid.lo.y) * grid.inv_cell.y;
@@ -456,6 +456,38 @@ private:
         for (uint32_t q = BeamGrid::kInline; q < count; ++q) fetch(grid.items[first + q]);
     }
     HugeVector<PrismKey> prism_keys_;
+    // The water beams' grid of the sun's centre, kept from pass to pass (beam_reference.cpp).
+    // Every pass draws its own direction within the sun's disk, and its prisms lie within
+    // `margin` of the centre's (in the grid's sheared frame, after each pass's own shear):
+    // the centre's grid, its marks widened by the margin, then serves them all, one grid per
+    // render instead of one per pass. A pass whose prisms it does not fit (another structure,
+    // or farther than the margin) gets a grid of its own.
+    struct ReferencePrism {  // what a pass's prism is compared with
+        double v[9];                        // its source corners (the same in every pass)
+        double ax[3], bx[3], ay[3], by[3];  // its key: corner j at x = ax + bx h, y = ay + by h
+        double end[3];                      // where each ray ends, in h
+        int water;
+        bool up, periodic;
+    };
+    struct GridReference {
+        bool built = false;   // for the sun `sun` of half-angle cosine `cos_half`
+        bool usable = false;  // (built: every prism sliced horizontally, the probes alike)
+        Vec3 sun;
+        double cos_half = 0.0;
+        double margin = 0.0;
+        double sx = 0.0, sy = 0.0;  // the centre's shear (the grid's is each pass's own)
+        std::vector<ReferencePrism> prisms;
+        BeamGrid grid;
+    } grid_ref_;
+    const BeamGrid* water_grid_ = &grid_;  // the water lookups' grid: grid_ or grid_ref_.grid
+    // Whether the scene's beams may share the reference: a smooth ocean patch and no water
+    // meshes (whose prisms' subdivision follows the sun more closely).
+    bool grid_reference_allowed() const;
+    // The reference for the current sun: the centre's prisms, their grid with the margin that
+    // two probes on the disk's edge need.
+    void build_grid_reference(const Spectrum& e_sun, int threads);
+    // Whether the current prisms (keys in prism_keys_, shear sx, sy) fit the reference.
+    bool grid_reference_fits(double sx, double sy) const;
     std::vector<std::vector<BeamPrism>> prism_lists_;  // build_beams' per-triangle lists (kept)
     // The sun (towards s) refracted through the ocean surface with local normal n (a rough sea
     // through the build's facet u1, u2): the direction d and the transmitted fraction T.
@@ -466,7 +498,12 @@ private:
                      HugeVector<BeamPrism>* dest);
     BeamGrid air_grid_;
     HugeVector<PrismKey> air_keys_;
-    static void build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys, BeamGrid* grid);
+    static void make_keys(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys);
+    // The grid's shear: the median drift per metre of depth of the horizontally sliced prisms.
+    static void grid_shear(const HugeVector<PrismKey>& keys, double* sx, double* sy);
+    // A grid over the prisms (their keys made), each piece's box widened by margin across.
+    static void build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, BeamGrid* grid,
+                           double margin = 0.0);
     // The prisms of one set (keys and grid) covering x, appended to out from index n.
     int lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
                const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const;

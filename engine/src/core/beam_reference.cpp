@@ -1,0 +1,178 @@
+// One beam grid per render: the grid of the sun's centre serves every pass's direction.
+//
+// Each pass builds its beams for a direction drawn in the sun's disk (0.53 deg across). Under
+// a wave patch the prisms of two such directions are the same prisms, moved a little: mostly
+// all alike (which the grid's shear, made per pass, takes up) and each by a few millimetres
+// more. So the grid of the centre's prisms, every piece's box widened by a margin that covers
+// those few millimetres, lists every pass's prisms where they are. The pass's prisms are then
+// checked against the centre's (the same source corners, and within the margin at every
+// height); one that does not fit gets a grid of its own. Results do not depend on the grid:
+// a lookup finds the same prisms (in prism order) whatever the cells that list them.
+#include <algorithm>
+#include <cmath>
+#include "scene.h"
+
+namespace photic {
+
+namespace {
+
+// (The helpers take Scene's private types as template parameters.)
+// The height h at which a horizontally sliced prism's ray j starts (its source corner).
+template <class Ref>
+double start_height(const Ref& R, int j) { return R.up ? R.v[3 * j + 2] : -R.v[3 * j + 2]; }
+
+}  // namespace
+
+bool Scene::grid_reference_allowed() const {
+    if (!has_sun || ocean_water < 0 || ocean_flat || ocean_rough) return false;
+    for (const auto& m : meshes)
+        if (m.kind == SurfaceKind::kWaterBoundary) return false;
+    return true;
+}
+
+namespace {
+
+// How far, in the grid's sheared x or y, a point of the prism with key K and ray ends `end`
+// (grid shear sx, sy) can be from the reference prism's (shear rsx, rsy) at the same height h:
+// over its three corners, each in the sheared frame at u = a + beta c(h) (beta = b + sigma s,
+// z = sigma h; c(h) = h clamped to the ray's span [start, end], as the grid's pieces clamp),
+// |u' - u| <= |a' - a| + |beta' - beta| |c'| + |beta| |c' - c|, with |c' - c| <= |end' - end|.
+template <class Ref, class Key>
+double deviation(const Ref& R, double rsx, double rsy, const Key& K, const double* end,
+                 double sx, double sy) {
+    const double sigma = R.up ? 1.0 : -1.0;
+    double dev = 0.0;
+    for (int j = 0; j < 3; ++j) {
+        const double H = std::max(std::fabs(start_height(R, j)), std::fabs(end[j]));
+        const double de = std::fabs(end[j] - R.end[j]);
+        const double bx = R.bx[j] + sigma * rsx, by = R.by[j] + sigma * rsy;
+        const double dx = std::fabs(K.ax[j] - R.ax[j]) + std::fabs(K.bx[j] + sigma * sx - bx) * H + std::fabs(bx) * de;
+        const double dy = std::fabs(K.ay[j] - R.ay[j]) + std::fabs(K.by[j] + sigma * sy - by) * H + std::fabs(by) * de;
+        dev = std::max({dev, dx, dy});
+    }
+    return dev;
+}
+
+// Whether prism P (key K) is the reference prism's in another pass: the same source corners,
+// water and slicing.
+template <class Ref, class Key>
+bool same_prism(const Ref& R, const BeamPrism& P, const Key& K) {
+    if (!K.horizontal || K.up != R.up || K.water != R.water || K.periodic != R.periodic) return false;
+    for (int j = 0; j < 3; ++j)
+        if (P.v[j].x != R.v[3 * j] || P.v[j].y != R.v[3 * j + 1] || P.v[j].z != R.v[3 * j + 2]) return false;
+    return true;
+}
+
+void ray_ends(const BeamPrism& P, double* end) {
+    for (int j = 0; j < 3; ++j) end[j] = P.mv[j] + P.md[j] * P.len[j];
+}
+
+// The layers of cells (as build_grid marks them) that a horizontally sliced prism's heights
+// [h0, h1] cross.
+template <class Grid>
+void layers(const Grid& g, bool up, double h0, double h1, int* k0, int* k1) {
+    const double zlo = up ? h0 : -h1, zhi = up ? h1 : -h0;
+    *k0 = std::clamp(int(std::floor((zlo - g.lo.z) / g.cell.z)), 0, g.nz - 1);
+    *k1 = std::clamp(int(std::floor((zhi - g.lo.z) / g.cell.z)), 0, g.nz - 1);
+}
+
+}  // namespace
+
+void Scene::build_grid_reference(const Spectrum& e_sun, int threads) {
+    GridReference& ref = grid_ref_;
+    ref.built = true;
+    ref.usable = false;
+    ref.sun = sun_dir;
+    ref.cos_half = sun_cos_half;
+    ref.prisms.clear();
+    ref.grid.clear();
+    HugeVector<BeamPrism> centre, probe;
+    HugeVector<PrismKey> keys, probe_keys;
+    make_prisms(sun_dir, e_sun, false, threads, 0.5, 0.0, &centre);
+    make_keys(centre, &keys);
+    if (centre.empty()) return;
+    for (const PrismKey& K : keys)
+        if (!K.horizontal) return;
+    double sx, sy;
+    grid_shear(keys, &sx, &sy);
+    ref.sx = sx;
+    ref.sy = sy;
+    ref.prisms.resize(centre.size());
+    for (size_t i = 0; i < centre.size(); ++i) {
+        const BeamPrism& P = centre[i];
+        const PrismKey& K = keys[i];
+        ReferencePrism& R = ref.prisms[i];
+        for (int j = 0; j < 3; ++j) {
+            R.v[3 * j] = P.v[j].x;
+            R.v[3 * j + 1] = P.v[j].y;
+            R.v[3 * j + 2] = P.v[j].z;
+            R.ax[j] = K.ax[j];
+            R.bx[j] = K.bx[j];
+            R.ay[j] = K.ay[j];
+            R.by[j] = K.by[j];
+        }
+        ray_ends(P, R.end);
+        R.water = K.water;
+        R.up = K.up;
+        R.periodic = K.periodic;
+    }
+    // Two probes on the disk's edge at right angles: the prisms move about linearly with the
+    // direction, so a direction at angle phi on the edge moves each point by at most
+    // sqrt(d1^2 + d2^2) (d1, d2: the probes' deviations); the margin adds a quarter for what
+    // is not linear.
+    const double alpha = std::acos(std::clamp(sun_cos_half, -1.0, 1.0));
+    const Vec3 a = std::fabs(sun_dir.x) < 0.9 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
+    const Vec3 u = normalize(cross(sun_dir, a)), v = cross(sun_dir, u);
+    std::vector<double> d1(centre.size(), 0.0);
+    double worst = 0.0;
+    for (int k = 0; k < 2 && alpha > 0.0; ++k) {
+        const Vec3 dir = normalize(sun_dir * std::cos(alpha) + (k == 0 ? u : v) * std::sin(alpha));
+        probe.clear();
+        make_prisms(dir, e_sun, false, threads, 0.5, 0.0, &probe);
+        make_keys(probe, &probe_keys);
+        if (probe.size() != centre.size()) return;
+        double px, py;
+        grid_shear(probe_keys, &px, &py);
+        for (size_t i = 0; i < probe.size(); ++i) {
+            if (!same_prism(ref.prisms[i], probe[i], probe_keys[i])) return;
+            double end[3];
+            ray_ends(probe[i], end);
+            const double d = deviation(ref.prisms[i], sx, sy, probe_keys[i], end, px, py);
+            if (k == 0) d1[i] = d;
+            else worst = std::max(worst, std::hypot(d1[i], d));
+        }
+    }
+    ref.margin = 1.25 * worst + 1e-9 * extent_;
+    build_grid(centre, keys, &ref.grid, ref.margin);
+    ref.usable = true;
+}
+
+bool Scene::grid_reference_fits(double sx, double sy) const {
+    const GridReference& ref = grid_ref_;
+    if (prisms.size() != ref.prisms.size()) return false;
+    // (the margin less the rounding of the grid's own boxes)
+    const double limit = ref.margin * (1.0 - 1e-6) - 1e-12 * extent_;
+    for (size_t i = 0; i < prisms.size(); ++i) {
+        const ReferencePrism& R = ref.prisms[i];
+        const BeamPrism& P = prisms[i];
+        const PrismKey& K = prism_keys_[i];
+        if (!same_prism(R, P, K)) return false;
+        double end[3];
+        ray_ends(P, end);
+        if (!(deviation(R, ref.sx, ref.sy, K, end, sx, sy) <= limit)) return false;
+        // the heights it spans must lie in the layers the reference's marked
+        double h0 = kInf, h1 = -kInf, r1 = -kInf;
+        for (int j = 0; j < 3; ++j) {
+            h0 = std::min(h0, start_height(R, j));
+            h1 = std::max(h1, end[j]);
+            r1 = std::max(r1, R.end[j]);
+        }
+        int k0, k1, m0, m1;
+        layers(ref.grid, R.up, h0, h1, &k0, &k1);
+        layers(ref.grid, R.up, h0, r1, &m0, &m1);
+        if (k0 < m0 || k1 > m1) return false;
+    }
+    return true;
+}
+
+}  // namespace photic
