@@ -178,3 +178,29 @@ def test_lookup_timing_probe_counts_the_same_beams():
     assert seconds > 0.0
     with pytest.raises(ValueError):
         core.time_beam_lookups(pts[:, :2], 0)
+
+
+@pytest.mark.parametrize("member", ["issue", "small rough fine", "large rough fine"])
+def test_passes_share_the_centres_grid_and_find_every_beam(member):
+    """Below a wave patch the beam grid is built once, for the sun's centre, and serves every
+    pass's direction in the disk (its marks widened by a margin): for directions across the
+    disk, its edge included, every pass shares it, and at random points beams_at finds the
+    beams that a brute force over all prisms and periods finds, with the same irradiances."""
+    from photic import bench_waves
+    from photic.render import sun_direction
+
+    m = next(m for m in bench_waves.WAVE_FAMILY if m.name == member)
+    scene = bench_waves.wave_member_scene(m, "waves", 64)
+    scene.validate()
+    core = compile_scene(scene, hybrid=True, forward_cone_deg=0.0)
+    rng = np.random.default_rng(7)
+    L = m.patch_m
+    pts = np.column_stack([rng.uniform(-L, 2 * L, 150), rng.uniform(-L, 2 * L, 150), rng.uniform(-5.0, 0.5, 150)])
+    for u in [(0.5, 0.5), (0.0, 0.0), (1.0, 0.5), (0.2, 0.9), (1.0, 1.0)]:
+        core.build_beams(tuple(sun_direction(scene, *u)), 2)
+        assert core.beam_grid_shared
+        count, e0 = core.beams_brute_force(pts, 0)
+        got = [core.beams_at(tuple(map(float, p)), 0) for p in pts]
+        assert [len(g) for g in got] == list(count)
+        np.testing.assert_allclose([sum(b[1][0] for b in g) for g in got], e0, rtol=1e-12, atol=0)
+    assert count.sum() > 100

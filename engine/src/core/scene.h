@@ -231,6 +231,8 @@ public:
     // to rank the beams, as strongest_beam does.
     int beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool exact = true) const;
     double beam_total_flux() const;   // sum of prism fluxes entering the water (band 0)
+    // Whether this pass's water beams are looked up in the grid built for the sun's centre.
+    bool beam_grid_shared() const { return water_grid_ == &grid_ref_.grid; }
     double air_beam_total_flux() const;   // sum of the reflected prisms' fluxes (band 0)
 
     void commit();                    // builds the BVHs and resolves sensor media
