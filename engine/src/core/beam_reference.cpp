@@ -10,6 +10,7 @@
 // a lookup finds the same prisms (in prism order) whatever the cells that list them.
 #include <algorithm>
 #include <cmath>
+#include "optics.h"
 #include "scene.h"
 
 namespace photic {
@@ -23,6 +24,16 @@ double start_height(const Ref& R, int j) { return R.up ? R.v[3 * j + 2] : -R.v[3
 
 }  // namespace
 
+bool Scene::reference_shear(const Vec3& s, double* sx, double* sy) const {
+    // u = x + sx z stays constant along the refracted ray d: sx = -d.x / d.z.
+    const double ior = waters[ocean_water].ior;
+    Vec3 d, d0;
+    if (!refract(-s, Vec3(0, 0, 1), 1.0, ior, &d) || !refract(-grid_ref_.sun, Vec3(0, 0, 1), 1.0, ior, &d0)) return false;
+    *sx = grid_ref_.sx + (-d.x / d.z - -d0.x / d0.z);
+    *sy = grid_ref_.sy + (-d.y / d.z - -d0.y / d0.z);
+    return true;
+}
+
 bool Scene::grid_reference_allowed() const {
     if (!has_sun || ocean_water < 0 || ocean_flat || ocean_rough) return false;
     for (const auto& m : meshes)
@@ -33,24 +44,23 @@ bool Scene::grid_reference_allowed() const {
 namespace {
 
 // How far, in the grid's sheared x or y, a point of the prism with key K and ray ends `end`
-// (grid shear sx, sy) can be from the reference prism's (shear rsx, rsy) at the same height h:
-// over its three corners, each in the sheared frame at u = a + beta c(h) (beta = b + sigma s,
-// z = sigma h; c(h) = h clamped to the ray's span [start, end], as the grid's pieces clamp),
-// |u' - u| <= |a' - a| + |beta' - beta| |c'| + |beta| |c' - c|, with |c' - c| <= |end' - end|.
+// (grid shear sx, sy) can be from the reference prism's (shear rsx, rsy) at the same height h.
+// Each corner lies at u = a + beta c(h) in the sheared frame (beta = b + sigma s, z = sigma h;
+// c(h): h clamped to the ray's span [start, end], as the grid's pieces clamp it), so
+// |u' - u| <= |a' - a| + |beta| |end' - end| + |beta' - beta| |c'(h)|: *da gets the largest
+// first two terms, *dg the largest |beta' - beta|, over the corners and both axes.
 template <class Ref, class Key>
-double deviation(const Ref& R, double rsx, double rsy, const Key& K, const double* end,
-                 double sx, double sy) {
+void deviation(const Ref& R, double rsx, double rsy, const Key& K, const double* end, double sx, double sy,
+               double* da, double* dg) {
     const double sigma = R.up ? 1.0 : -1.0;
-    double dev = 0.0;
+    *da = *dg = 0.0;
     for (int j = 0; j < 3; ++j) {
-        const double H = std::max(std::fabs(start_height(R, j)), std::fabs(end[j]));
         const double de = std::fabs(end[j] - R.end[j]);
         const double bx = R.bx[j] + sigma * rsx, by = R.by[j] + sigma * rsy;
-        const double dx = std::fabs(K.ax[j] - R.ax[j]) + std::fabs(K.bx[j] + sigma * sx - bx) * H + std::fabs(bx) * de;
-        const double dy = std::fabs(K.ay[j] - R.ay[j]) + std::fabs(K.by[j] + sigma * sy - by) * H + std::fabs(by) * de;
-        dev = std::max({dev, dx, dy});
+        *da = std::max({*da, std::fabs(K.ax[j] - R.ax[j]) + std::fabs(bx) * de,
+                        std::fabs(K.ay[j] - R.ay[j]) + std::fabs(by) * de});
+        *dg = std::max({*dg, std::fabs(K.bx[j] + sigma * sx - bx), std::fabs(K.by[j] + sigma * sy - by)});
     }
-    return dev;
 }
 
 // Whether prism P (key K) is the reference prism's in another pass: the same source corners,
@@ -117,14 +127,13 @@ void Scene::build_grid_reference(const Spectrum& e_sun, int threads) {
         R.periodic = K.periodic;
     }
     // Two probes on the disk's edge at right angles: the prisms move about linearly with the
-    // direction, so a direction at angle phi on the edge moves each point by at most
-    // sqrt(d1^2 + d2^2) (d1, d2: the probes' deviations); the margin adds a quarter for what
-    // is not linear.
+    // direction, so at angle phi on the edge each deviation is at most sqrt(d1^2 + d2^2) (d1,
+    // d2: the probes'); the margins add a quarter for what is not linear.
     const double alpha = std::acos(std::clamp(sun_cos_half, -1.0, 1.0));
     const Vec3 a = std::fabs(sun_dir.x) < 0.9 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
     const Vec3 u = normalize(cross(sun_dir, a)), v = cross(sun_dir, u);
-    std::vector<double> d1(centre.size(), 0.0);
-    double worst = 0.0;
+    std::vector<double> a1(centre.size(), 0.0), g1(centre.size(), 0.0);
+    for (ReferencePrism& R : ref.prisms) R.margin_a = R.margin_g = 0.0;
     for (int k = 0; k < 2 && alpha > 0.0; ++k) {
         const Vec3 dir = normalize(sun_dir * std::cos(alpha) + (k == 0 ? u : v) * std::sin(alpha));
         probe.clear();
@@ -132,34 +141,49 @@ void Scene::build_grid_reference(const Spectrum& e_sun, int threads) {
         make_keys(probe, &probe_keys);
         if (probe.size() != centre.size()) return;
         double px, py;
-        grid_shear(probe_keys, &px, &py);
+        if (!reference_shear(dir, &px, &py)) return;
         for (size_t i = 0; i < probe.size(); ++i) {
-            if (!same_prism(ref.prisms[i], probe[i], probe_keys[i])) return;
-            double end[3];
+            ReferencePrism& R = ref.prisms[i];
+            if (!same_prism(R, probe[i], probe_keys[i])) return;
+            double end[3], da, dg;
             ray_ends(probe[i], end);
-            const double d = deviation(ref.prisms[i], sx, sy, probe_keys[i], end, px, py);
-            if (k == 0) d1[i] = d;
-            else worst = std::max(worst, std::hypot(d1[i], d));
+            deviation(R, sx, sy, probe_keys[i], end, px, py, &da, &dg);
+            if (k == 0) {
+                a1[i] = da;
+                g1[i] = dg;
+            } else {
+                R.margin_a = 1.25 * std::hypot(a1[i], da);
+                R.margin_g = 1.25 * std::hypot(g1[i], dg);
+            }
         }
     }
-    ref.margin = 1.25 * worst + 1e-9 * extent_;
-    build_grid(centre, keys, &ref.grid, ref.margin);
+    // (Some deviations are rounding, 1e-16 m, which is not linear in the direction: the
+    // margins take 1e-10 of the scene's size more; the grid's boxes 1e-9, far more than their
+    // own rounding.)
+    std::vector<double> ma(centre.size()), mg(centre.size());
+    for (size_t i = 0; i < centre.size(); ++i) {
+        ReferencePrism& R = ref.prisms[i];
+        R.margin_a += 1e-10 * extent_;
+        R.margin_g = R.margin_g * (1.0 + 1e-9) + 1e-12;
+        ma[i] = R.margin_a + 1e-9 * extent_;
+        mg[i] = R.margin_g * (1.0 + 1e-9);
+    }
+    build_grid(centre, keys, &ref.grid, ma.data(), mg.data());
     ref.usable = true;
 }
 
 bool Scene::grid_reference_fits(double sx, double sy) const {
     const GridReference& ref = grid_ref_;
     if (prisms.size() != ref.prisms.size()) return false;
-    // (the margin less the rounding of the grid's own boxes)
-    const double limit = ref.margin * (1.0 - 1e-6) - 1e-12 * extent_;
     for (size_t i = 0; i < prisms.size(); ++i) {
         const ReferencePrism& R = ref.prisms[i];
         const BeamPrism& P = prisms[i];
         const PrismKey& K = prism_keys_[i];
         if (!same_prism(R, P, K)) return false;
-        double end[3];
+        double end[3], da, dg;
         ray_ends(P, end);
-        if (!(deviation(R, ref.sx, ref.sy, K, end, sx, sy) <= limit)) return false;
+        deviation(R, ref.sx, ref.sy, K, end, sx, sy, &da, &dg);
+        if (!(da <= R.margin_a && dg <= R.margin_g)) return false;
         // the heights it spans must lie in the layers the reference's marked
         double h0 = kInf, h1 = -kInf, r1 = -kInf;
         for (int j = 0; j < 3; ++j) {

@@ -459,8 +459,7 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
               ref.cos_half == sun_cos_half))
             build_grid_reference(e_sun, threads);
         double sx, sy;
-        grid_shear(prism_keys_, &sx, &sy);
-        if (ref.usable && grid_reference_fits(sx, sy)) {
+        if (ref.usable && reference_shear(s, &sx, &sy) && grid_reference_fits(sx, sy)) {
             grid_ref_.grid.sx = sx;
             grid_ref_.grid.sy = sy;
             water_grid_ = &grid_ref_.grid;
@@ -680,7 +679,7 @@ void Scene::grid_shear(const HugeVector<PrismKey>& keys, double* sx, double* sy)
 }
 
 void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, BeamGrid* grid_out,
-                       double margin) {
+                       const double* margin_a, const double* margin_g) {
     BeamGrid& grid = *grid_out;
     grid.clear();
     if (prisms.empty()) return;
@@ -719,6 +718,13 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
             *h1 = std::max(*h1, P.mv[j] + P.md[j] * P.len[j]);
         }
     };
+    // How far prism pi's boxes are widened across, for a piece at heights z in [za, zb].
+    auto margin = [&](size_t pi, double za, double zb) {
+        if (!margin_a) return 0.0;
+        const BeamPrism& P = prisms[pi];
+        const double s = std::max({std::fabs(P.v[0].z), std::fabs(P.v[1].z), std::fabs(P.v[2].z)});
+        return margin_a[pi] + margin_g[pi] * std::max({std::fabs(za), std::fabs(zb), s});
+    };
     Vec3 lo(kInf, kInf, kInf), hi(-kInf, -kInf, -kInf);
     std::vector<double> widths, drifts;
     for (size_t pi = 0; pi < prisms.size(); ++pi) {
@@ -739,8 +745,13 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
     }
     const double width = median(widths);
     const double drift = drifts.empty() ? 1.0 : median(drifts);
-    lo = lo - Vec3(margin, margin, 0.0);
-    hi = hi + Vec3(margin, margin, 0.0);
+    if (margin_a) {  // widened by the largest margin of any layer (layers reach a cell beyond)
+        const double zmax = std::max(std::fabs(lo.z), std::fabs(hi.z)) + (hi.z - lo.z);
+        double m = 0.0;
+        for (size_t pi = 0; pi < prisms.size(); ++pi) m = std::max(m, margin(pi, zmax, zmax));
+        lo = lo - Vec3(m, m, 0.0);
+        hi = hi + Vec3(m, m, 0.0);
+    }
     Vec3 ext = hi - lo;
     // Cells: across, a typical prism's width; tall enough that a typical prism drifts by half
     // of that in one cell (narrower or shorter cells: no faster in the stepped pool). Not so
@@ -777,11 +788,11 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
     auto for_each_mark = [&](auto&& mark) {
         make_room(grid.last, ncell);
         grid.last.assign(ncell, ~uint32_t(0));
-        auto mark_box = [&](uint32_t pi, const Vec3& blo, const Vec3& bhi, int z0, int z1) {
-            int x0 = std::clamp(int((blo.x - margin - lo.x) / cxy), 0, grid.nx - 1);
-            int x1 = std::clamp(int((bhi.x + margin - lo.x) / cxy), 0, grid.nx - 1);
-            int y0 = std::clamp(int((blo.y - margin - lo.y) / cxy), 0, grid.ny - 1);
-            int y1 = std::clamp(int((bhi.y + margin - lo.y) / cxy), 0, grid.ny - 1);
+        auto mark_box = [&](uint32_t pi, const Vec3& blo, const Vec3& bhi, int z0, int z1, double m) {
+            int x0 = std::clamp(int((blo.x - m - lo.x) / cxy), 0, grid.nx - 1);
+            int x1 = std::clamp(int((bhi.x + m - lo.x) / cxy), 0, grid.nx - 1);
+            int y0 = std::clamp(int((blo.y - m - lo.y) / cxy), 0, grid.ny - 1);
+            int y1 = std::clamp(int((bhi.y + m - lo.y) / cxy), 0, grid.ny - 1);
             for (int z = z0; z <= z1; ++z)
                 for (int y = y0; y <= y1; ++y)
                     for (int x = x0; x <= x1; ++x) {
@@ -810,7 +821,7 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
                     if (!(ha <= hb)) continue;
                     Vec3 blo, bhi;
                     piece(P, ha, hb, &blo, &bhi);
-                    mark_box(uint32_t(pi), blo, bhi, k, k);
+                    mark_box(uint32_t(pi), blo, bhi, k, k, margin(pi, za, zb));
                 }
                 continue;
             }
@@ -823,7 +834,7 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
                 piece(P, ha, hb, &blo, &bhi);
                 const int z0 = std::clamp(int((blo.z - lo.z) / cz), 0, grid.nz - 1);
                 const int z1 = std::clamp(int((bhi.z - lo.z) / cz), 0, grid.nz - 1);
-                mark_box(uint32_t(pi), blo, bhi, z0, z1);
+                mark_box(uint32_t(pi), blo, bhi, z0, z1, margin(pi, blo.z, bhi.z));
             }
         }
     };

@@ -468,6 +468,9 @@ private:
         double v[9];                        // its source corners (the same in every pass)
         double ax[3], bx[3], ay[3], by[3];  // its key: corner j at x = ax + bx h, y = ay + by h
         double end[3];                      // where each ray ends, in h
+        // How far the prisms of other directions may lie from it, in the grid's sheared frame,
+        // at heights h: a + g max(|h|, |h| of its source corners) (the grid's margin there).
+        double margin_a, margin_g;
         int water;
         bool up, periodic;
     };
@@ -476,7 +479,6 @@ private:
         bool usable = false;  // (built: every prism sliced horizontally, the probes alike)
         Vec3 sun;
         double cos_half = 0.0;
-        double margin = 0.0;
         double sx = 0.0, sy = 0.0;  // the centre's shear (the grid's is each pass's own)
         std::vector<ReferencePrism> prisms;
         BeamGrid grid;
@@ -488,6 +490,10 @@ private:
     // The reference for the current sun: the centre's prisms, their grid with the margin that
     // two probes on the disk's edge need.
     void build_grid_reference(const Spectrum& e_sun, int threads);
+    // The shared grid's shear for the sun towards s: the centre's, moved as the drift of the
+    // sun refracted by a level surface moves (smooth in the direction, as the prisms' drifts
+    // are, where each pass's own median is not).
+    bool reference_shear(const Vec3& s, double* sx, double* sy) const;
     // Whether the current prisms (keys in prism_keys_, shear sx, sy) fit the reference.
     bool grid_reference_fits(double sx, double sy) const;
     std::vector<std::vector<BeamPrism>> prism_lists_;  // build_beams' per-triangle lists (kept)
@@ -503,9 +509,11 @@ private:
     static void make_keys(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys);
     // The grid's shear: the median drift per metre of depth of the horizontally sliced prisms.
     static void grid_shear(const HugeVector<PrismKey>& keys, double* sx, double* sy);
-    // A grid over the prisms (their keys made), each piece's box widened by margin across.
+    // A grid over the prisms (their keys made); margins (optional, per prism): a piece of
+    // prism i at heights z is widened across by margin_a[i] + margin_g[i] max(|z|, |z| of its
+    // source corners).
     static void build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, BeamGrid* grid,
-                           double margin = 0.0);
+                           const double* margin_a = nullptr, const double* margin_g = nullptr);
     // The prisms of one set (keys and grid) covering x, appended to out from index n.
     int lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
                const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const;
