@@ -96,8 +96,22 @@ void Scene::build_grid_reference(const Spectrum& e_sun, int threads) {
     ref.cos_half = sun_cos_half;
     ref.prisms.clear();
     ref.grid.clear();
-    HugeVector<BeamPrism> centre, probe;
-    HugeVector<PrismKey> keys, probe_keys;
+    // (The centre's prisms and the probes' in the buffers of the build's own prisms, water and
+    // air, which it fills later: their memory is faulted in once.)
+    HugeVector<BeamPrism>& centre = prisms;
+    HugeVector<BeamPrism>& probe = air_prisms;
+    HugeVector<PrismKey>& keys = prism_keys_;
+    HugeVector<PrismKey>& probe_keys = air_keys_;
+    struct Empty {  // left empty, whichever way this returns
+        Scene* s;
+        ~Empty() {
+            s->prisms.clear();
+            s->air_prisms.clear();
+            s->prism_keys_.clear();
+            s->air_keys_.clear();
+        }
+    } empty{this};
+    centre.clear();
     make_prisms(sun_dir, e_sun, false, threads, 0.5, 0.0, &centre);
     make_keys(centre, &keys);
     if (centre.empty()) return;

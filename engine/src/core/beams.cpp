@@ -448,16 +448,19 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         flat_air_beam = F > 0.0;
     }
 
+    // The grid of the sun's centre, the first time (in the buffers of this build's prisms,
+    // which it leaves empty, so that their memory is not faulted in twice).
+    const GridReference& ref = grid_ref_;
+    const bool shared = grid_reference_allowed();
+    if (shared && !(ref.built && ref.sun.x == sun_dir.x && ref.sun.y == sun_dir.y && ref.sun.z == sun_dir.z &&
+                    ref.cos_half == sun_cos_half))
+        build_grid_reference(e_sun, threads);
     make_prisms(s, e_sun, false, threads, facet_u1, facet_u2, &prisms);
     if (need_air) make_prisms(s, e_sun, true, threads, facet_u1, facet_u2, &air_prisms);
     // The water beams' grid: the reference's, when these prisms fit it, else their own.
     make_keys(prisms, &prism_keys_);
     water_grid_ = &grid_;
-    if (grid_reference_allowed()) {
-        const GridReference& ref = grid_ref_;
-        if (!(ref.built && ref.sun.x == sun_dir.x && ref.sun.y == sun_dir.y && ref.sun.z == sun_dir.z &&
-              ref.cos_half == sun_cos_half))
-            build_grid_reference(e_sun, threads);
+    if (shared) {
         double sx, sy;
         if (ref.usable && reference_shear(s, &sx, &sy) && grid_reference_fits(sx, sy)) {
             grid_ref_.grid.sx = sx;
