@@ -43,23 +43,19 @@ bool Scene::grid_reference_allowed() const {
 
 namespace {
 
-// How far, in the grid's sheared x or y, a point of the prism with key K and ray ends `end`
-// (grid shear sx, sy) can be from the reference prism's (shear rsx, rsy) at the same height h.
-// Each corner lies at u = a + beta c(h) in the sheared frame (beta = b + sigma s, z = sigma h;
-// c(h): h clamped to the ray's span [start, end], as the grid's pieces clamp it), so
-// |u' - u| <= |a' - a| + |beta| |end' - end| + |beta' - beta| |c'(h)|: *da gets the largest
-// first two terms, *dg the largest |beta' - beta|, over the corners and both axes.
+// How far, in the grid's sheared x or y, a corner of the prism with key K (grid shear sx, sy)
+// can be from the reference prism's (shear rsx, rsy) at the same height h: each corner lies at
+// u = a + beta h in the sheared frame (beta = b + sigma s, z = sigma h), so |u' - u| <=
+// |a' - a| + |beta' - beta| |h|: *da gets the largest |a' - a|, *dg the largest
+// |beta' - beta|, over the corners and both axes.
 template <class Ref, class Key>
-void deviation(const Ref& R, double rsx, double rsy, const Key& K, const double* end, double sx, double sy,
-               double* da, double* dg) {
+void deviation(const Ref& R, double rsx, double rsy, const Key& K, double sx, double sy, double* da, double* dg) {
     const double sigma = R.up ? 1.0 : -1.0;
     *da = *dg = 0.0;
     for (int j = 0; j < 3; ++j) {
-        const double de = std::fabs(end[j] - R.end[j]);
-        const double bx = R.bx[j] + sigma * rsx, by = R.by[j] + sigma * rsy;
-        *da = std::max({*da, std::fabs(K.ax[j] - R.ax[j]) + std::fabs(bx) * de,
-                        std::fabs(K.ay[j] - R.ay[j]) + std::fabs(by) * de});
-        *dg = std::max({*dg, std::fabs(K.bx[j] + sigma * sx - bx), std::fabs(K.by[j] + sigma * sy - by)});
+        *da = std::max({*da, std::fabs(K.ax[j] - R.ax[j]), std::fabs(K.ay[j] - R.ay[j])});
+        *dg = std::max({*dg, std::fabs(K.bx[j] + sigma * (sx - rsx) - R.bx[j]),
+                        std::fabs(K.by[j] + sigma * (sy - rsy) - R.by[j])});
     }
 }
 
@@ -159,9 +155,8 @@ void Scene::build_grid_reference(const Spectrum& e_sun, int threads) {
         for (size_t i = 0; i < probe.size(); ++i) {
             ReferencePrism& R = ref.prisms[i];
             if (!same_prism(R, probe[i], probe_keys[i])) return;
-            double end[3], da, dg;
-            ray_ends(probe[i], end);
-            deviation(R, sx, sy, probe_keys[i], end, px, py, &da, &dg);
+            double da, dg;
+            deviation(R, sx, sy, probe_keys[i], px, py, &da, &dg);
             if (k == 0) {
                 a1[i] = da;
                 g1[i] = dg;
@@ -196,7 +191,7 @@ bool Scene::grid_reference_fits(double sx, double sy) const {
         if (!same_prism(R, P, K)) return false;
         double end[3], da, dg;
         ray_ends(P, end);
-        deviation(R, ref.sx, ref.sy, K, end, sx, sy, &da, &dg);
+        deviation(R, ref.sx, ref.sy, K, sx, sy, &da, &dg);
         if (!(da <= R.margin_a && dg <= R.margin_g)) return false;
         // the heights it spans must lie in the layers the reference's marked
         double h0 = kInf, h1 = -kInf, r1 = -kInf;

@@ -697,16 +697,19 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
     grid.sx = sx;
     grid.sy = sy;
     // Each prism is cut into pieces along its slicing axis; the box (in the sheared frame) of
-    // each piece's six corner points marks its cells. The slices between ha and hb can bulge
-    // out of the box of their end slices only through the lateral faces, which are ruled
-    // surfaces between those points: their convex hull, and so the box, contains them (the
-    // shear, being linear, keeps that).
+    // each piece's six corner points marks its cells. The slice at h (what prism_eval takes:
+    // the triangle of the vertex rays at h, even before a ray's start or beyond its end, cut
+    // by the source's plane and by the end face) lies in the triangle of its corners, which
+    // move linearly with h, so the convex hull of the corners at ha and hb, and its box,
+    // contains every slice between (the shear, being linear, keeps that). The corners are not
+    // clamped to the rays' spans: where one ray ends before the others (on a wall), the slice
+    // reaches beyond its end (clamped corners lost beams there, beside the stepped pool's walls).
     auto piece = [&](const BeamPrism& P, double ha, double hb, Vec3* blo, Vec3* bhi) {
         *blo = Vec3(kInf, kInf, kInf);
         *bhi = Vec3(-kInf, -kInf, -kInf);
         for (int j = 0; j < 3; ++j)
             for (double h : {ha, hb}) {
-                double t = std::clamp((h - P.mv[j]) / P.md[j], 0.0, P.len[j]);
+                const double t = (h - P.mv[j]) / P.md[j];
                 Vec3 q = P.v[j] + P.d[j] * t;
                 q = Vec3(q.x + sx * q.z, q.y + sy * q.z, q.z);
                 *blo = Vec3(std::min(blo->x, q.x), std::min(blo->y, q.y), std::min(blo->z, q.z));
@@ -723,10 +726,7 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
     };
     // How far prism pi's boxes are widened across, for a piece at heights z in [za, zb].
     auto margin = [&](size_t pi, double za, double zb) {
-        if (!margin_a) return 0.0;
-        const BeamPrism& P = prisms[pi];
-        const double s = std::max({std::fabs(P.v[0].z), std::fabs(P.v[1].z), std::fabs(P.v[2].z)});
-        return margin_a[pi] + margin_g[pi] * std::max({std::fabs(za), std::fabs(zb), s});
+        return margin_a ? margin_a[pi] + margin_g[pi] * std::max(std::fabs(za), std::fabs(zb)) : 0.0;
     };
     Vec3 lo(kInf, kInf, kInf), hi(-kInf, -kInf, -kInf);
     std::vector<double> widths, drifts;
@@ -818,9 +818,12 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
                 const double zlo = up ? h0 : -h1, zhi = up ? h1 : -h0;
                 const int k0 = std::clamp(int(std::floor((zlo - lo.z) / cz)), 0, grid.nz - 1);
                 const int k1 = std::clamp(int(std::floor((zhi - lo.z) / cz)), 0, grid.nz - 1);
+                // (With margins, for the shared grid, each piece covers the whole layer: another
+                // pass's prism may reach a little beyond this one's span.)
+                const double g0 = margin_a ? -kInf : h0, g1 = margin_a ? kInf : h1;
                 for (int k = k0; k <= k1; ++k) {
                     const double za = lo.z + k * cz - pad, zb = lo.z + (k + 1) * cz + pad;
-                    const double ha = std::max(h0, up ? za : -zb), hb = std::min(h1, up ? zb : -za);
+                    const double ha = std::max(g0, up ? za : -zb), hb = std::min(g1, up ? zb : -za);
                     if (!(ha <= hb)) continue;
                     Vec3 blo, bhi;
                     piece(P, ha, hb, &blo, &bhi);

@@ -60,7 +60,7 @@ void bind_test_probes(py::class_<Scene>& scene) {
         .def("beams_brute_force", [](const Scene& s, py::array_t<double, py::array::c_style | py::array::forcecast> points,
                                      int medium) {
             // The beams at each point found without the grid: every prism (in the water
-            // `medium`) evaluated at every image of the point that falls within a metre of the
+            // `medium`, or reflected into the air for medium -1) evaluated at every image of the point that falls within a metre of the
             // prism's box (every period below the ocean patch). (n,) counts and (n,) sums of
             // band 0's irradiance, for comparing with beams_at.
             if (points.ndim() != 2 || points.shape(1) != 3) throw std::invalid_argument("points: expected (n, 3)");
@@ -72,7 +72,7 @@ void bind_test_probes(py::class_<Scene>& scene) {
                 const Vec3 x(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
                 long c = 0;
                 double e = 0.0;
-                for (const BeamPrism& P : s.prisms) {
+                for (const BeamPrism& P : medium < 0 ? s.air_prisms : s.prisms) {
                     if (P.water != medium) continue;
                     const double tol = 1.0;
                     long i0 = 0, i1 = 0, j0 = 0, j1 = 0;

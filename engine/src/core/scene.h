@@ -469,7 +469,7 @@ private:
         double ax[3], bx[3], ay[3], by[3];  // its key: corner j at x = ax + bx h, y = ay + by h
         double end[3];                      // where each ray ends, in h
         // How far the prisms of other directions may lie from it, in the grid's sheared frame,
-        // at heights h: a + g max(|h|, |h| of its source corners) (the grid's margin there).
+        // at heights h: a + g |h| (the grid's margin there).
         double margin_a, margin_g;
         int water;
         bool up, periodic;
@@ -510,8 +510,8 @@ private:
     // The grid's shear: the median drift per metre of depth of the horizontally sliced prisms.
     static void grid_shear(const HugeVector<PrismKey>& keys, double* sx, double* sy);
     // A grid over the prisms (their keys made); margins (optional, per prism): a piece of
-    // prism i at heights z is widened across by margin_a[i] + margin_g[i] max(|z|, |z| of its
-    // source corners).
+    // prism i at heights z is widened across by margin_a[i] + margin_g[i] max |z|, and covers
+    // its whole layer of cells.
     static void build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, BeamGrid* grid,
                            const double* margin_a = nullptr, const double* margin_g = nullptr);
     // The prisms of one set (keys and grid) covering x, appended to out from index n.
