@@ -783,77 +783,196 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
     grid.ny = int(std::floor(ext.y / cxy)) + 1;
     grid.nz = int(std::floor(ext.z / cz)) + 1;
     size_t ncell = size_t(grid.nx) * grid.ny * grid.nz;
-    // A cell lists its prisms in prism order, so that a point's beams are summed in prism
-    // order whatever the cells: the (cell, prism) marks are visited twice in prism order, to
-    // count each cell's and then to fill them (a counting sort without storing the marks).
-    // The arrays keep their memory from pass to pass: fresh ones cost a page fault and a
-    // zeroed page per 4 kB, a fifth of a build's time.
-    auto for_each_mark = [&](auto&& mark) {
-        make_room(grid.last, ncell);
-        grid.last.assign(ncell, ~uint32_t(0));
-        auto mark_box = [&](uint32_t pi, const Vec3& blo, const Vec3& bhi, int z0, int z1, double m) {
-            int x0 = std::clamp(int((blo.x - m - lo.x) / cxy), 0, grid.nx - 1);
-            int x1 = std::clamp(int((bhi.x + m - lo.x) / cxy), 0, grid.nx - 1);
-            int y0 = std::clamp(int((blo.y - m - lo.y) / cxy), 0, grid.ny - 1);
-            int y1 = std::clamp(int((bhi.y + m - lo.y) / cxy), 0, grid.ny - 1);
-            for (int z = z0; z <= z1; ++z)
-                for (int y = y0; y <= y1; ++y)
-                    for (int x = x0; x <= x1; ++x) {
-                        size_t c = (size_t(z) * grid.ny + y) * grid.nx + x;
-                        if (grid.last[c] == pi) continue;
-                        grid.last[c] = pi;
-                        mark(c, pi);
-                    }
+    // The cells of a layer that the convex hull of points q (the sheared x, y of a piece's
+    // corners) meets, the hull widened by m: row by row (row(r, x0, x1)), the hull's extent
+    // across within the row (its edges clipped to the row), where the piece's box marked whole
+    // rectangles (a slice, a triangle, fills about half of its box).
+    auto hull_rows = [&](std::array<std::array<double, 2>, 6> q, double m, auto&& row) {
+        for (int i = 1; i < 6; ++i)  // (sorted by x, then y: insertion sort)
+            for (int j = i; j > 0 && q[j] < q[j - 1]; --j) std::swap(q[j], q[j - 1]);
+        std::array<std::array<double, 2>, 12> h;  // Andrew's monotone chain
+        auto turn = [](const std::array<double, 2>& o, const std::array<double, 2>& a,
+                       const std::array<double, 2>& b) {
+            return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
         };
-        // A point's layer of cells is floor((z - lo.z) / cz): the pieces of horizontally sliced
-        // prisms are the parts between those layers' planes (widened far beyond rounding), each
-        // marking cells of its own layer only (pieces across two layers marked both).
-        const double pad = 1e-9 * (cz + std::fabs(lo.z) + std::fabs(hi.z));
-        for (size_t pi = 0; pi < prisms.size(); ++pi) {
-            const BeamPrism& P = prisms[pi];
-            double h0, h1;
-            span(P, &h0, &h1);
-            if (keys[pi].horizontal) {
-                const bool up = keys[pi].up;  // h = z going up, -z going down
-                const double zlo = up ? h0 : -h1, zhi = up ? h1 : -h0;
-                const int k0 = std::clamp(int(std::floor((zlo - lo.z) / cz)), 0, grid.nz - 1);
-                const int k1 = std::clamp(int(std::floor((zhi - lo.z) / cz)), 0, grid.nz - 1);
-                // (With margins, for the shared grid, each piece covers the whole layer: another
-                // pass's prism may reach a little beyond this one's span.)
-                const double g0 = margin_a ? -kInf : h0, g1 = margin_a ? kInf : h1;
-                for (int k = k0; k <= k1; ++k) {
-                    const double za = lo.z + k * cz - pad, zb = lo.z + (k + 1) * cz + pad;
-                    const double ha = std::max(g0, up ? za : -zb), hb = std::min(g1, up ? zb : -za);
-                    if (!(ha <= hb)) continue;
-                    Vec3 blo, bhi;
-                    piece(P, ha, hb, &blo, &bhi);
-                    mark_box(uint32_t(pi), blo, bhi, k, k, margin(pi, za, zb));
-                }
-                continue;
+        int nh = 0;
+        for (int i = 0; i < 6; ++i) {
+            while (nh >= 2 && turn(h[nh - 2], h[nh - 1], q[i]) <= 0.0) --nh;
+            h[nh++] = q[i];
+        }
+        for (int i = 4, lower = nh + 1; i >= 0; --i) {
+            while (nh >= lower && turn(h[nh - 2], h[nh - 1], q[i]) <= 0.0) --nh;
+            h[nh++] = q[i];
+        }
+        nh = std::max(1, nh - 1);  // (the last point is the first)
+        // Per edge: its heights' range across (y) and x as a linear function of y there.
+        double ey0[6], ey1[6], ex0[6], ex1[6], slope[6];
+        double ylo = kInf, yhi = -kInf;
+        for (int i = 0; i < nh; ++i) {
+            const auto& a = h[i];
+            const auto& b = h[(i + 1) % nh];
+            const bool up = a[1] <= b[1];
+            ey0[i] = up ? a[1] : b[1];
+            ey1[i] = up ? b[1] : a[1];
+            ex0[i] = up ? a[0] : b[0];
+            ex1[i] = up ? b[0] : a[0];
+            slope[i] = ey1[i] > ey0[i] ? (ex1[i] - ex0[i]) / (ey1[i] - ey0[i]) : 0.0;
+            ylo = std::min(ylo, ey0[i]);
+            yhi = std::max(yhi, ey1[i]);
+        }
+        const double eps = 1e-9 * (cxy + std::fabs(lo.x) + std::fabs(lo.y));
+        const int r0 = std::clamp(int((ylo - m - eps - lo.y) / cxy), 0, grid.ny - 1);
+        const int r1 = std::clamp(int((yhi + m + eps - lo.y) / cxy), 0, grid.ny - 1);
+        for (int r = r0; r <= r1; ++r) {
+            const double b0 = lo.y + r * cxy - m - eps, b1 = lo.y + (r + 1) * cxy + m + eps;
+            double xmin = kInf, xmax = -kInf;
+            for (int i = 0; i < nh; ++i) {  // each edge's part within the row
+                const double y0 = std::max(b0, ey0[i]), y1 = std::min(b1, ey1[i]);
+                if (y0 > y1) continue;
+                const double xa = ey1[i] > ey0[i] ? ex0[i] + slope[i] * (y0 - ey0[i]) : ex0[i];
+                const double xb = ey1[i] > ey0[i] ? ex0[i] + slope[i] * (y1 - ey0[i]) : ex1[i];
+                xmin = std::min({xmin, xa, xb});
+                xmax = std::max({xmax, xa, xb});
             }
-            // pieces about a cell wide (grazing beams)
-            const double step = cxy;
-            int pieces = std::max(1, std::min(100000, int(std::ceil((h1 - h0) / step))));
-            for (int k = 0; k < pieces; ++k) {
-                double ha = h0 + (h1 - h0) * k / pieces, hb = h0 + (h1 - h0) * (k + 1) / pieces;
-                Vec3 blo, bhi;
-                piece(P, ha, hb, &blo, &bhi);
-                const int z0 = std::clamp(int((blo.z - lo.z) / cz), 0, grid.nz - 1);
-                const int z1 = std::clamp(int((bhi.z - lo.z) / cz), 0, grid.nz - 1);
-                mark_box(uint32_t(pi), blo, bhi, z0, z1, margin(pi, blo.z, bhi.z));
-            }
+            if (!(xmin <= xmax)) continue;
+            // (widened by the rounding of the edges' slopes: eps per cell of height)
+            const double w = m + eps * (1.0 + (b1 - b0) / cxy);
+            const int x0 = std::clamp(int((xmin - w - lo.x) / cxy), 0, grid.nx - 1);
+            const int x1 = std::clamp(int((xmax + w - lo.x) / cxy), 0, grid.nx - 1);
+            row(r, x0, x1);
         }
     };
+
+    // A point's layer of cells is floor((z - lo.z) / cz): the pieces of horizontally sliced
+    // prisms are the parts between those layers' planes (widened far beyond rounding), each
+    // marking cells of its own layer only. layer_piece: prism pi's piece in layer k, its six
+    // corners in the sheared frame and its margin (false: none).
+    const double pad = 1e-9 * (cz + std::fabs(lo.z) + std::fabs(hi.z));
+    auto layers_of = [&](size_t pi, int* k0, int* k1) {
+        double h0, h1;
+        span(prisms[pi], &h0, &h1);
+        const bool up = keys[pi].up;  // h = z going up, -z going down
+        const double zlo = up ? h0 : -h1, zhi = up ? h1 : -h0;
+        *k0 = std::clamp(int(std::floor((zlo - lo.z) / cz)), 0, grid.nz - 1);
+        *k1 = std::clamp(int(std::floor((zhi - lo.z) / cz)), 0, grid.nz - 1);
+    };
+    // (With margins, for the shared grid, the whole layer: another pass's prism may reach a
+    // little beyond this one's span.)
+    auto layer_piece = [&](size_t pi, int k, std::array<std::array<double, 2>, 6>* q, double* m) {
+        const BeamPrism& P = prisms[pi];
+        double h0, h1;
+        span(P, &h0, &h1);
+        if (margin_a) {
+            h0 = -kInf;
+            h1 = kInf;
+        }
+        const bool up = keys[pi].up;
+        const double za = lo.z + k * cz - pad, zb = lo.z + (k + 1) * cz + pad;
+        const double ha = std::max(h0, up ? za : -zb), hb = std::min(h1, up ? zb : -za);
+        if (!(ha <= hb)) return false;
+        for (int j = 0; j < 3; ++j)
+            for (int e = 0; e < 2; ++e) {  // (the corners piece() takes)
+                const double t = ((e ? hb : ha) - P.mv[j]) / P.md[j];
+                const Vec3 p = P.v[j] + P.d[j] * t;
+                (*q)[2 * j + e] = {p.x + sx * p.z, p.y + sy * p.z};
+            }
+        *m = margin(pi, za, zb);
+        return true;
+    };
+    // A cell lists its prisms in prism order, so that a point's beams are summed in prism
+    // order whatever the cells. The arrays keep their memory from pass to pass: fresh ones
+    // cost a page fault and a zeroed page per 4 kB, a fifth of a build's time.
     make_room(grid.start, ncell + 1);
-    make_room(grid.fill, ncell);
+    bool all_horizontal = true;
+    for (const PrismKey& K : keys) all_horizontal = all_horizontal && K.horizontal;
+    if (all_horizontal) {
+        // Layer by layer, each piece's marks made once and sorted by cell in the layer (a
+        // counting sort, stable: prism order), the layer's counts in the cache.
+        std::vector<int> k0(prisms.size()), k1(prisms.size());
+        for (size_t pi = 0; pi < prisms.size(); ++pi) layers_of(pi, &k0[pi], &k1[pi]);
+        grid.start.resize(ncell + 1);
+        const size_t nlayer = size_t(grid.nx) * grid.ny;
+        std::vector<uint32_t> count(nlayer + 1);
+        HugeVector<uint64_t>& marks = grid.marks;  // (cell in the layer << 32 | prism)
+        grid.items.clear();
+        for (int k = 0; k < grid.nz; ++k) {
+            marks.clear();
+            for (size_t pi = 0; pi < prisms.size(); ++pi) {
+                std::array<std::array<double, 2>, 6> q;
+                double m;
+                if (k < k0[pi] || k > k1[pi] || !layer_piece(pi, k, &q, &m)) continue;
+                hull_rows(q, m, [&](int r, int x0, int x1) {
+                    for (int x = x0; x <= x1; ++x) marks.push_back(uint64_t(size_t(r) * grid.nx + x) << 32 | pi);
+                });
+            }
+            std::fill(count.begin(), count.end(), 0u);
+            for (uint64_t mk : marks) count[(mk >> 32) + 1]++;
+            for (size_t c = 0; c < nlayer; ++c) count[c + 1] += count[c];
+            const size_t base = grid.items.size();
+            for (size_t c = 0; c < nlayer; ++c) grid.start[size_t(k) * nlayer + c] = uint32_t(base + count[c]);
+            make_room(grid.items, base + marks.size());
+            grid.items.resize(base + marks.size());
+            for (uint64_t mk : marks) grid.items[base + count[mk >> 32]++] = uint32_t(mk);
+        }
+        grid.start[ncell] = uint32_t(grid.items.size());
+    } else {
+        // The (cell, prism) marks visited twice in prism order, to count each cell's and then
+        // to fill them (a counting sort without storing the marks).
+        auto for_each_mark = [&](auto&& mark) {
+            make_room(grid.last, ncell);
+            grid.last.assign(ncell, ~uint32_t(0));
+            for (size_t pi = 0; pi < prisms.size(); ++pi) {
+                const BeamPrism& P = prisms[pi];
+                if (keys[pi].horizontal) {
+                    int k0, k1;
+                    layers_of(pi, &k0, &k1);
+                    for (int k = k0; k <= k1; ++k) {
+                        std::array<std::array<double, 2>, 6> q;
+                        double m;
+                        if (!layer_piece(pi, k, &q, &m)) continue;
+                        // (each cell once: a prism's layers and rows are visited once each)
+                        hull_rows(q, m, [&](int r, int x0, int x1) {
+                            for (int x = x0; x <= x1; ++x) mark((size_t(k) * grid.ny + r) * grid.nx + x, uint32_t(pi));
+                        });
+                    }
+                    continue;
+                }
+                // pieces about a cell wide (grazing beams), their boxes' cells
+                double h0, h1;
+                span(P, &h0, &h1);
+                const int pieces = std::max(1, std::min(100000, int(std::ceil((h1 - h0) / cxy))));
+                for (int k = 0; k < pieces; ++k) {
+                    double ha = h0 + (h1 - h0) * k / pieces, hb = h0 + (h1 - h0) * (k + 1) / pieces;
+                    Vec3 blo, bhi;
+                    piece(P, ha, hb, &blo, &bhi);
+                    const double m = margin(pi, blo.z, bhi.z);
+                    const int x0 = std::clamp(int((blo.x - m - lo.x) / cxy), 0, grid.nx - 1);
+                    const int x1 = std::clamp(int((bhi.x + m - lo.x) / cxy), 0, grid.nx - 1);
+                    const int y0 = std::clamp(int((blo.y - m - lo.y) / cxy), 0, grid.ny - 1);
+                    const int y1 = std::clamp(int((bhi.y + m - lo.y) / cxy), 0, grid.ny - 1);
+                    const int z0 = std::clamp(int((blo.z - lo.z) / cz), 0, grid.nz - 1);
+                    const int z1 = std::clamp(int((bhi.z - lo.z) / cz), 0, grid.nz - 1);
+                    for (int z = z0; z <= z1; ++z)
+                        for (int y = y0; y <= y1; ++y)
+                            for (int x = x0; x <= x1; ++x) {
+                                const size_t c = (size_t(z) * grid.ny + y) * grid.nx + x;
+                                if (grid.last[c] == uint32_t(pi)) continue;
+                                grid.last[c] = uint32_t(pi);
+                                mark(c, uint32_t(pi));
+                            }
+                }
+            }
+        };
+        make_room(grid.fill, ncell);
+        grid.start.assign(ncell + 1, 0);
+        for_each_mark([&](size_t c, uint32_t) { grid.start[c + 1]++; });
+        for (size_t c = 0; c < ncell; ++c) grid.start[c + 1] += grid.start[c];
+        make_room(grid.items, grid.start[ncell]);
+        grid.items.resize(grid.start[ncell]);
+        grid.fill.assign(grid.start.begin(), grid.start.end() - 1);
+        for_each_mark([&](size_t c, uint32_t pi) { grid.items[grid.fill[c]++] = pi; });
+    }
     make_room(grid.cells, ncell * BeamGrid::kCellWords);
-    grid.start.assign(ncell + 1, 0);
-    for_each_mark([&](size_t c, uint32_t) { grid.start[c + 1]++; });
-    for (size_t c = 0; c < ncell; ++c) grid.start[c + 1] += grid.start[c];
-    make_room(grid.items, grid.start[ncell]);
-    grid.items.resize(grid.start[ncell]);
-    grid.fill.assign(grid.start.begin(), grid.start.end() - 1);
-    for_each_mark([&](size_t c, uint32_t pi) { grid.items[grid.fill[c]++] = pi; });
     grid.cells.assign(ncell * BeamGrid::kCellWords, 0);
     for (size_t c = 0; c < ncell; ++c) {
         uint32_t* rec = &grid.cells[c * BeamGrid::kCellWords];

@@ -419,6 +419,7 @@ private:
         static constexpr int kCellWords = 8, kInline = kCellWords - 2;
         HugeVector<uint32_t> cells, items;
         HugeVector<uint32_t> start, fill, last;  // the build's (kept: see build_grid)
+        HugeVector<uint64_t> marks;
         // Empty (no cells), keeping the arrays' memory for the next pass.
         void clear() {
             sx = sy = 0.0;
