@@ -381,11 +381,9 @@ private:
     // there then finds them in the cache; the cells by multiplications, which may differ from
     // lookup's at a cell's edge): below the periodic patch, the cells of x's images in every
     // period the grid covers, as lookup visits them (paths soon leave the primary period).
-    // stage 1: reads those cells and fetches their candidates' keys (after stage 0 for many
-    // points in turn, so that their misses overlap). Always inlined: GCC's link-time
-    // optimisation takes an out-of-line function that only reads memory and prefetches for
-    // one without effects, and drops its calls.
-    __attribute__((always_inline)) void prefetch_beams(const Vec3& x, int medium, int stage) const {
+    // Always inlined: GCC's link-time optimisation takes an out-of-line function that only
+    // reads memory and prefetches for one without effects, and drops its calls.
+    __attribute__((always_inline)) void prefetch_beams(const Vec3& x, int medium) const {
         const BeamGrid& grid = *water_grid_;
         if (grid.nx == 0) return;
         double fx = (x.x + grid.sx * x.z - grid.lo.x) * grid.inv_cell.x;
@@ -402,11 +400,7 @@ private:
         const size_t layer = size_t(fz) * grid.ny;
         for (double gy = fy; gy >= 0.0 && gy < grid.ny; gy += py)
             for (double gx = fx; gx >= 0.0 && gx < grid.nx; gx += px) {
-                const uint32_t* rec = &grid.cells[((layer + size_t(gy)) * grid.nx + size_t(gx)) * BeamGrid::kCellWords];
-                if (stage == 0)
-                    __builtin_prefetch(rec);
-                else
-                    prefetch_cell_keys(grid, rec, prism_keys_);
+                __builtin_prefetch(&grid.cells[((layer + size_t(gy)) * grid.nx + size_t(gx)) * BeamGrid::kCellWords]);
             }
     }
     struct BeamGrid {  // uniform grid over prism pieces (primary patch frame, sheared)
