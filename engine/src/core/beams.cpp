@@ -1191,15 +1191,15 @@ void Scene::find_candidates(const HugeVector<BeamPrism>& prisms, const HugeVecto
     // (in the grid's sheared frame: a shift by whole periods is horizontal there too)
     const double xu = x.x + grid.sx * x.z, xv = x.y + grid.sy * x.z;
     if (periodic) {
-        i0 = long(std::ceil((xu - ghi.x) / patch_lx)); i1 = long(std::floor((xu - grid.lo.x) / patch_lx));
-        j0 = long(std::ceil((xv - ghi.y) / patch_ly)); j1 = long(std::floor((xv - grid.lo.y) / patch_ly));
+        i0 = ceil_to_long((xu - ghi.x) / patch_lx); i1 = floor_to_long((xu - grid.lo.x) / patch_lx);
+        j0 = ceil_to_long((xv - ghi.y) / patch_ly); j1 = floor_to_long((xv - grid.lo.y) / patch_ly);
     }
     for (long i = i0; i <= i1; ++i)
         for (long j = j0; j <= j1; ++j) {
             Vec3 y = x - Vec3(double(i) * patch_lx, double(j) * patch_ly, 0.0);
-            int cx = int(std::floor((xu - double(i) * patch_lx - grid.lo.x) / grid.cell.x));
-            int cy = int(std::floor((xv - double(j) * patch_ly - grid.lo.y) / grid.cell.y));
-            int cz = int(std::floor((y.z - grid.lo.z) / grid.cell.z));
+            const long cx = floor_to_long((xu - double(i) * patch_lx - grid.lo.x) / grid.cell.x);
+            const long cy = floor_to_long((xv - double(j) * patch_ly - grid.lo.y) / grid.cell.y);
+            const long cz = floor_to_long((y.z - grid.lo.z) / grid.cell.z);
             if (cx < 0 || cy < 0 || cz < 0 || cx >= grid.nx || cy >= grid.ny || cz >= grid.nz) continue;
             size_t c = (size_t(cz) * grid.ny + cy) * grid.nx + cx;
             // The keys all fetched at once and tested (independent loads into arrays of

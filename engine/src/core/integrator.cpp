@@ -170,7 +170,8 @@ void Scene::settle_beam_terms(BeamTerms& b, Spectrum* volume) const {
         find_candidates(prisms, prism_keys_, *water_grid_, point(b.terms[i]), b.terms[i].medium, &found);
     }
     first[b.n] = found.size();
-    thread_local BeamSample beams[kMaxBeams];  // (as beam_scatter_along's)
+    thread_local BeamSample beams_tls[kMaxBeams];  // (as beam_scatter_along's)
+    BeamSample* const beams = beams_tls;  // (the thread-local address looked up once)
     for (int i = 0; i < b.n; ++i) {
         const BeamTerms::Term& e = b.terms[i];
         const Vec3 x = point(e);

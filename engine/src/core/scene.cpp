@@ -218,8 +218,8 @@ bool Scene::intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit,
     if (!(t0 < t1)) return false;
     // Walk the periodic tiles the ray crosses inside the slab of wave heights (2-D DDA).
     Vec3 p = o + d * t0;
-    long i = long(std::floor((p.x - patch_x0) / patch_lx));
-    long j = long(std::floor((p.y - patch_y0) / patch_ly));
+    long i = floor_to_long((p.x - patch_x0) / patch_lx);
+    long j = floor_to_long((p.y - patch_y0) / patch_ly);
     double t_cur = t0;
     const int kMaxTiles = 100000;  // beyond this a near-horizontal ray is treated as passing
     for (int step = 0; step < kMaxTiles; ++step) {

@@ -394,8 +394,8 @@ private:
         if (medium == ocean_water && !ocean_flat) {
             px = patch_lx * grid.inv_cell.x;
             py = patch_ly * grid.inv_cell.y;
-            fx -= std::floor(fx / px) * px;  // the image in [0, px), then those above it
-            fy -= std::floor(fy / py) * py;
+            fx -= double(floor_to_long(fx / px)) * px;  // the image in [0, px), then those above it
+            fy -= double(floor_to_long(fy / py)) * py;
         }
         const size_t layer = size_t(fz) * grid.ny;
         for (double gy = fy; gy >= 0.0 && gy < grid.ny; gy += py)
