@@ -92,23 +92,20 @@ void Scene::build_grid_reference(const Spectrum& e_sun, int threads) {
     ref.cos_half = sun_cos_half;
     ref.prisms.clear();
     ref.grid.clear();
-    // (The centre's prisms and the probes' in the buffers of the build's own prisms, water and
-    // air, which it fills later: their memory is faulted in once.)
+    // (The centre's prisms in the buffers of the build's own, which it fills later: their
+    // memory is faulted in once.)
     HugeVector<BeamPrism>& centre = prisms;
-    HugeVector<BeamPrism>& probe = air_prisms;
     HugeVector<PrismKey>& keys = prism_keys_;
-    HugeVector<PrismKey>& probe_keys = air_keys_;
     struct Empty {  // left empty, whichever way this returns
         Scene* s;
         ~Empty() {
             s->prisms.clear();
-            s->air_prisms.clear();
             s->prism_keys_.clear();
-            s->air_keys_.clear();
         }
     } empty{this};
     centre.clear();
-    make_prisms(sun_dir, e_sun, false, threads, 0.5, 0.0, &centre);
+    std::vector<std::array<Vec3, 3>> normals;  // each prism's corners' shading normals
+    make_prisms(sun_dir, e_sun, false, threads, 0.5, 0.0, &centre, &normals);
     make_keys(centre, &keys);
     if (centre.empty()) return;
     for (const PrismKey& K : keys)
@@ -138,25 +135,39 @@ void Scene::build_grid_reference(const Spectrum& e_sun, int threads) {
     }
     // Two probes on the disk's edge at right angles: the prisms move about linearly with the
     // direction, so at angle phi on the edge each deviation is at most sqrt(d1^2 + d2^2) (d1,
-    // d2: the probes'); the margins add a quarter for what is not linear.
+    // d2: the probes'); the margins add a quarter for what is not linear. A probe's prism is
+    // the centre's with its corners' rays refracted for the probe's direction, as make_prisms
+    // refracts them (its keys need no more: no ray is traced; a pass whose prisms are made
+    // otherwise, subdivided where the centre's are not, gets a grid of its own).
     const double alpha = std::acos(std::clamp(sun_cos_half, -1.0, 1.0));
     const Vec3 a = std::fabs(sun_dir.x) < 0.9 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
     const Vec3 u = normalize(cross(sun_dir, a)), v = cross(sun_dir, u);
+    const double ior = waters[ocean_water].ior;
     std::vector<double> a1(centre.size(), 0.0), g1(centre.size(), 0.0);
     for (ReferencePrism& R : ref.prisms) R.margin_a = R.margin_g = 0.0;
     for (int k = 0; k < 2 && alpha > 0.0; ++k) {
         const Vec3 dir = normalize(sun_dir * std::cos(alpha) + (k == 0 ? u : v) * std::sin(alpha));
-        probe.clear();
-        make_prisms(dir, e_sun, false, threads, 0.5, 0.0, &probe);
-        make_keys(probe, &probe_keys);
-        if (probe.size() != centre.size()) return;
         double px, py;
         if (!reference_shear(dir, &px, &py)) return;
-        for (size_t i = 0; i < probe.size(); ++i) {
+        for (size_t i = 0; i < centre.size(); ++i) {
             ReferencePrism& R = ref.prisms[i];
-            if (!same_prism(R, probe[i], probe_keys[i])) return;
+            const BeamPrism& P = centre[i];
+            PrismKey Q = keys[i];  // the probe's key
+            for (int j = 0; j < 3; ++j) {
+                // (trace_vertex's direction: through the corner's normal, else the face's)
+                const Vec3& n = normals[i][j];
+                Vec3 d;
+                if (!(dot(n, dir) > 0.0 && refract(-dir, n, 1.0, ior, &d)) && !refract(-dir, P.n_src, 1.0, ior, &d))
+                    d = -n;
+                const double md = Q.up ? d.z : -d.z, mv = Q.up ? P.v[j].z : -P.v[j].z;
+                if (!(md > 0.1)) return;  // (its prism would not be sliced alike)
+                Q.bx[j] = d.x / md;
+                Q.by[j] = d.y / md;
+                Q.ax[j] = P.v[j].x - Q.bx[j] * mv;
+                Q.ay[j] = P.v[j].y - Q.by[j] * mv;
+            }
             double da, dg;
-            deviation(R, sx, sy, probe_keys[i], px, py, &da, &dg);
+            deviation(R, sx, sy, Q, px, py, &da, &dg);
             if (k == 0) {
                 a1[i] = da;
                 g1[i] = dg;

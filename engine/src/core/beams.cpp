@@ -85,7 +85,7 @@ bool Scene::refract_sun(const Vec3& s, const Vec3& n, double ior, Vec3* d, doubl
 }
 
 void Scene::make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int threads, double facet_u1,
-                        double facet_u2, HugeVector<BeamPrism>* dest) {
+                        double facet_u2, HugeVector<BeamPrism>* dest, std::vector<std::array<Vec3, 3>>* normals) {
     auto ocean_refraction = [&](const Vec3& n, double ior, Vec3* d, double* T, double u1, double u2) {
         return refract_sun(s, n, ior, d, T, u1, u2);
     };
@@ -251,6 +251,7 @@ void Scene::make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int thre
     // came back as fresh pages to be zeroed by the kernel in every build).
     std::vector<std::vector<BeamPrism>>& out = prism_lists_;
     if (out.size() < src.size()) out.resize(src.size());
+    std::vector<std::vector<std::array<Vec3, 3>>> out_normals(normals ? src.size() : 0);
     parallel_for(src.size(), threads, [&](size_t ti, int) {
         out[ti].clear();
         const SourceTri& st = src[ti];
@@ -359,6 +360,7 @@ void Scene::make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int thre
                 if (lit < 3) P.check_sun = true;  // shaded in part, by whatever shades it
             }
             out[ti].push_back(P);
+            if (normals) out_normals[ti].push_back({it.n[0], it.n[1], it.n[2]});
         }
     });
     size_t total = dest->size();
@@ -366,6 +368,8 @@ void Scene::make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int thre
     make_room(*dest, total);
     for (size_t ti = 0; ti < src.size(); ++ti)
         for (const BeamPrism& p : out[ti]) dest->push_back(p);
+    if (normals)
+        for (const auto& list : out_normals) normals->insert(normals->end(), list.begin(), list.end());
 }
 
 void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2) {

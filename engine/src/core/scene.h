@@ -496,9 +496,10 @@ private:
     // through the build's facet u1, u2): the direction d and the transmitted fraction T.
     bool refract_sun(const Vec3& s, const Vec3& n, double ior, Vec3* d, double* T, double u1, double u2) const;
     // build_beams' prisms for the sun towards s (e_sun: its irradiance normal to itself),
-    // appended to dest: refracted into the water, or (air) reflected into the air.
+    // appended to dest: refracted into the water, or (air) reflected into the air; normals
+    // (optional): each prism's corners' shading normals, appended alike.
     void make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int threads, double facet_u1, double facet_u2,
-                     HugeVector<BeamPrism>* dest);
+                     HugeVector<BeamPrism>* dest, std::vector<std::array<Vec3, 3>>* normals = nullptr);
     BeamGrid air_grid_;
     HugeVector<PrismKey> air_keys_;
     static void make_keys(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys);
