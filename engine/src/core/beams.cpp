@@ -825,8 +825,9 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
             yhi = std::max(yhi, ey1[i]);
         }
         const double eps = 1e-9 * (cxy + std::fabs(lo.x) + std::fabs(lo.y));
-        const int r0 = std::clamp(int((ylo - m - eps - lo.y) / cxy), 0, grid.ny - 1);
-        const int r1 = std::clamp(int((yhi + m + eps - lo.y) / cxy), 0, grid.ny - 1);
+        const double inv = 1.0 / cxy;  // (cells by multiplications: the hull is widened by eps)
+        const int r0 = std::clamp(int((ylo - m - eps - lo.y) * inv), 0, grid.ny - 1);
+        const int r1 = std::clamp(int((yhi + m + eps - lo.y) * inv), 0, grid.ny - 1);
         for (int r = r0; r <= r1; ++r) {
             const double b0 = lo.y + r * cxy - m - eps, b1 = lo.y + (r + 1) * cxy + m + eps;
             double xmin = kInf, xmax = -kInf;
@@ -841,8 +842,8 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
             if (!(xmin <= xmax)) continue;
             // (widened by the rounding of the edges' slopes: eps per cell of height)
             const double w = m + eps * (1.0 + (b1 - b0) / cxy);
-            const int x0 = std::clamp(int((xmin - w - lo.x) / cxy), 0, grid.nx - 1);
-            const int x1 = std::clamp(int((xmax + w - lo.x) / cxy), 0, grid.nx - 1);
+            const int x0 = std::clamp(int((xmin - w - lo.x) * inv), 0, grid.nx - 1);
+            const int x1 = std::clamp(int((xmax + w - lo.x) * inv), 0, grid.nx - 1);
             row(r, x0, x1);
         }
     };
@@ -874,11 +875,14 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
         const double za = lo.z + k * cz - pad, zb = lo.z + (k + 1) * cz + pad;
         const double ha = std::max(h0, up ? za : -zb), hb = std::min(h1, up ? zb : -za);
         if (!(ha <= hb)) return false;
+        // (the corners piece() takes, from the key: x = ax + bx h, y = ay + by h, z = -h going
+        // down; the hull is widened far beyond the rounding that differs)
+        const PrismKey& K = keys[pi];
+        const double sz = up ? 1.0 : -1.0;
         for (int j = 0; j < 3; ++j)
-            for (int e = 0; e < 2; ++e) {  // (the corners piece() takes)
-                const double t = ((e ? hb : ha) - P.mv[j]) / P.md[j];
-                const Vec3 p = P.v[j] + P.d[j] * t;
-                (*q)[2 * j + e] = {p.x + sx * p.z, p.y + sy * p.z};
+            for (int e = 0; e < 2; ++e) {
+                const double h = e ? hb : ha;
+                (*q)[2 * j + e] = {K.ax[j] + (K.bx[j] + sz * sx) * h, K.ay[j] + (K.by[j] + sz * sy) * h};
             }
         *m = margin(pi, za, zb);
         return true;
