@@ -214,9 +214,9 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
     for (;;) {
         Hit h;
         double t_hit;
-        // Whether this vertex sent the path into the beam's forward peak (its direction more
-        // likely under the beam-direction pdf than under the vertex's own): such a path carries
-        // the guide's small weight, and Russian roulette, which would return the survivors to
+        // Whether this vertex's guided mixture sent the path into the beam's forward peak (its
+        // direction more likely under the beam-direction pdf than under the vertex's own): such
+        // a path carries the guide's small weight, and Russian roulette, which would return the survivors to
         // a weight of about 1 at the odds of its small weight, would make exactly the rare,
         // huge samples the guide removes; it is skipped there (a choice that depends only on
         // the path so far, so the estimate stays unbiased).
@@ -384,7 +384,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                     // taken with probability qb (balance heuristic with q samples expected).
                     double pb = beam_direction_pdf(w, bd, nd);
                     bv_weight = pmix / (pmix + qb * pb);
-                    into_peak = pb > pa;
+                    into_peak = guide && pb > pa;
                     Vec3 wb;
                     double pa_b = 0.0, pb_b = 0.0;
                     if (qb >= 1.0 || rng.uniform() < qb) {
@@ -510,7 +510,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 if (guide) scale = pm > 0.0 ? pa / pm : 0.0;
                 guided_weight *= scale;
                 bv_weight = pm / (pm + q * pb);
-                into_peak = pb > pa;
+                into_peak = guide && pb > pa;
                 Vec3 wb;
                 double cb = 0.0;
                 if (q >= 1.0 || rng.uniform() < q) {
