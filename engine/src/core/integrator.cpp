@@ -216,10 +216,10 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
         double t_hit;
         // Whether this vertex's guided mixture sent the path into the beam's forward peak (its
         // direction more likely under the beam-direction pdf than under the vertex's own): such
-        // a path carries the guide's small weight, and Russian roulette, which would return the survivors to
-        // a weight of about 1 at the odds of its small weight, would make exactly the rare,
-        // huge samples the guide removes; it is skipped there (a choice that depends only on
-        // the path so far, so the estimate stays unbiased).
+        // a path carries the guide's small weight, and Russian roulette, which would return
+        // the survivors to a weight of about 1 at the odds of that small weight, would make
+        // exactly the rare, huge samples the guide removes; it is skipped there (a choice that
+        // depends only on the path so far, so the estimate stays unbiased).
         bool into_peak = false;
         if (medium >= 0) {
             const Water& w = waters[medium];
