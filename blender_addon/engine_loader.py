@@ -14,13 +14,16 @@ Where the engine comes from, first found wins:
 
 Directories are appended, so Blender's own modules keep precedence.
 
-Embree: the engine's core links the system Embree 3, as Debian's Blender does, so it imports
-normally (with ``RTLD_DEEPBIND`` its C++ runtime symbols would bind privately and Blender 3.4
-aborts at exit). embreex, which bundles Embree 4 under the same symbol names, is not needed by
-the add-on, but trimesh (used for the closedness check of water meshes) imports it when it is
-installed, and its ray calls then crash in a Blender that already holds the system Embree 3
-(``RTLD_DEEPBIND`` does not help: "inputs are from different devices"). In such a process
-embreex is therefore blocked before anything imports it; trimesh falls back to its own code.
+Embree: the engine's core is imported normally (with ``RTLD_DEEPBIND`` its C++ runtime symbols
+would bind privately and Blender 3.4 aborts at exit) and loads the Embree 4 library of the
+embreex wheel itself, by path and with ``RTLD_DEEPBIND`` (``photic.embree``), so that library
+binds to itself and its own TBB even in a Blender that links the system's Embree 3 and TBB under
+the same symbol names. embreex's Python modules, which link that library by name, are not
+needed by the add-on, but trimesh (used for the closedness check of water meshes) imports them
+when installed, and their ray calls then crash in a Blender that already holds the system Embree
+3 ("inputs are from different devices"). In such a process embreex is therefore blocked before
+anything imports it (the core finds the library without importing embreex); trimesh falls back
+to its own code.
 """
 from __future__ import annotations
 

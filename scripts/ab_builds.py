@@ -7,11 +7,13 @@ effect (a few per cent) is smaller than this machine's run-to-run noise between 
 
 Each build is loaded in its own worker process, which compiles the scene once and then, on
 request, runs one unit of work: ``pool``, a pass of the stepped pool's underwater view (hybrid,
-exact mode, beams built once; process CPU seconds), or ``segments``, path tracing of bench's
-``mesh_in_water`` radiometers (wall nanoseconds per path segment), ``wavebuild``, a beam build
-under a member of the radiometers-under-waves family (photic.bench_waves; CPU seconds), or
-``waves``, one pass of that member's 64 radiometers, ``samples`` each, with the beams built
-once (CPU microseconds per sample). The two workers take turns,
+exact mode, beams built once; process CPU seconds), ``segments``, path tracing of bench's
+``mesh_in_water`` radiometers (wall nanoseconds per path segment), ``rays``, the core's own
+``trace_rays`` on that scene's raw triangles, 2**20 random rays to infinity as ``photic bench``'s
+native column (wall nanoseconds per ray), ``wavebuild``, a beam build under a member of the
+radiometers-under-waves family (photic.bench_waves; CPU seconds), or ``waves``, one pass of that
+member's 64 radiometers, ``samples`` each, with the beams built once (CPU microseconds per
+sample). The two workers take turns,
 ``rounds`` times each, in alternating order, so that drifts of the machine's load fall on both;
 it prints both medians, their ratio and the median of the per-round ratios, and whether the two
 builds computed the same sums (a change meant to be bit-identical must say True).
@@ -77,6 +79,16 @@ def worker(so: str, case: str, threads: int, resolution: int, spp: int, member: 
                 s, _, _ = core.render_radiometer(i, 0, samples, threads)
                 total += float(s.sum())
             return (time.process_time() - t0) / (samples * len(scene.radiometers)) * 1e6, total
+    elif case == "rays":
+        from photic import bench
+        bs = bench.mesh_in_water()
+        raw = bench.native_raw_scene(bench.embree_triangles(bs.scene))
+        o, d = bench.random_rays(bs, 1 << 20)
+
+        def unit():
+            t0 = time.perf_counter()
+            t = raw.trace_rays(o, d, threads)
+            return (time.perf_counter() - t0) / len(o) * 1e9, float(t.astype(float).sum())
     else:
         from photic import bench
         scene = bench.mesh_in_water().scene
@@ -102,7 +114,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("old")
     ap.add_argument("new")
-    ap.add_argument("--case", choices=("pool", "segments", "wavebuild", "waves"), default="pool")
+    ap.add_argument("--case", choices=("pool", "segments", "rays", "wavebuild", "waves"), default="pool")
     ap.add_argument("--rounds", type=int, default=10)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--resolution", type=int, default=128)
@@ -137,8 +149,8 @@ def main(argv=None) -> int:
                 p.stdin.write("stop\n")
                 p.stdin.close()
             p.wait()
-    unit = {"pool": "CPU-s per pass", "segments": "ns per path segment", "wavebuild": "CPU-s per build",
-            "waves": "CPU-us per sample"}[a.case]
+    unit = {"pool": "CPU-s per pass", "segments": "ns per path segment", "rays": "ns per ray",
+            "wavebuild": "CPU-s per build", "waves": "CPU-us per sample"}[a.case]
     mo, mn = statistics.median(values[0]), statistics.median(values[1])
     per_round = statistics.median(n / o for o, n in zip(*values))
     print(f"{a.case}, {a.threads} thread(s), {a.rounds} rounds, {unit}: old {mo:.4g}, new {mn:.4g}, "

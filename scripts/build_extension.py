@@ -6,9 +6,10 @@ Steps:
 
 1. the engine's wheel is built from ``engine/`` (``pip wheel --no-build-isolation``, so the
    running environment must hold scikit-build-core, pybind11 and CMake, as ``scripts/install.sh``
-   sets up); its compiled core links the system Embree 3 (``libembree3.so``, Debian/Ubuntu:
-   ``libembree3-3``/``libembree-dev``), which the machine running Blender must have as well: the
-   wheel is tagged ``linux_x86_64`` and is not made self-contained (no auditwheel);
+   sets up); its compiled core needs only the C++ runtime: it loads the Embree 4 library of
+   the bundled embreex wheel (with that wheel's TBB) when imported, so the machine running
+   Blender needs no Embree or TBB of its own (tests/test_extension.py hides the system's). The
+   wheel is tagged ``linux_x86_64`` (built here, not audited for manylinux);
 2. the wheels the engine needs beyond Blender's own numpy are downloaded (binary only, for this
    interpreter's CPython version on manylinux x86_64, no dependency resolution: the list below is
    complete). Versions are pinned to those installed here, the combination the tests ran with;
@@ -40,9 +41,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 ADDON = ROOT / "blender_addon"
 ENGINE = ROOT / "engine"
-# Everything the engine imports beyond the standard library and numpy (which Blender bundles).
-# embreex is not imported by the engine today (its core links Embree itself) but is shipped
-# for the benchmarks and tools that compare against it.
+# Everything the engine needs beyond the standard library and numpy (which Blender bundles).
+# embreex carries the Embree 4 library (and its TBB) that the engine's core loads.
 DEPENDENCIES = ["embreex", "trimesh", "OpenEXR", "jsonschema", "attrs", "referencing",
                 "rpds-py", "jsonschema-specifications", "typing-extensions"]
 PLATFORMS = ["manylinux2014_x86_64"] + [f"manylinux_2_{m}_x86_64" for m in range(17, 29)]

@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # Creates the development environment in .venv/ at the repository root:
-# system packages (Embree 3 with headers, a C++ compiler, CMake, Python headers and venv),
-# the Python dependencies (requirements.txt) and the engine built from source (engine/).
+# system packages (a C++ compiler, CMake, Python headers and venv, Debian's Blender and Xvfb for
+# the add-on's tests), the Python dependencies (requirements.txt) and the engine built from
+# source (engine/). No system Embree: the engine loads the one the embreex wheel ships.
 # Safe to run again: it only installs what is missing and rebuilds the engine.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 PY=${PYTHON:-python3}
-APT_PACKAGES="libembree-dev g++ cmake make python3-dev python3-venv blender xvfb xauth"
+APT_PACKAGES="g++ cmake make python3-dev python3-venv blender xvfb xauth"
 
 missing=()
 for p in $APT_PACKAGES; do
@@ -31,4 +32,4 @@ echo "== building and installing the engine (C++ core) from source"
 .venv/bin/python -m pip install -q -e ./engine
 echo "== installing the Blender add-on as a package (photic_blender: photic-blend, .blend job inputs)"
 .venv/bin/python -m pip install -q -e ./blender_addon
-.venv/bin/python -c "import photic._core, photic; print('photic', photic.__version__, 'installed')"
+.venv/bin/python -c "import photic._core, photic; print('photic', photic.__version__, 'installed;', photic._core.EMBREE)"

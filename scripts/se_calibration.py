@@ -14,6 +14,8 @@ unreliable (too few passes, heavy tails) are counted in the 'flagged' column.
     .venv/bin/python scripts/se_calibration.py                       # a quick grid (~10 min)
     .venv/bin/python scripts/se_calibration.py --full --json se.json # 1024 ... 1M samples
     .venv/bin/python scripts/se_calibration.py --markdown se.json    # the table of docs/verification.md
+    .venv/bin/python scripts/se_calibration.py --surfaces bottom --zeniths 60 --cones 0 --samples 1048576
+                                                     # problem 2's water over a bottom (bottom_scene)
 """
 from __future__ import annotations
 
@@ -32,7 +34,31 @@ WAVES = {"kind": "waves", "spectrum": "jonswap", "wind_speed": 6.0, "fetch_m": 5
 DEPTHS = (1.0, 5.0)
 
 
+def bottom_scene(seed: int, zenith: float = 60.0, cone="auto") -> Scene:
+    """Problem 2 of Mobley et al. (1993) (c = 1 m^-1, single-scattering albedo 0.9, Petzold,
+    black sky, flat surface, the sun at 60 deg) over a Lambertian bottom of reflectance 0.5 at
+    5 m (optical depth 5), as problem 6 puts a bottom under it: Ed, Eou and Lu (the mu >= 0.9
+    cap) at 1, 3 and 4.5 m. The automatic forward cone is 0 here (the exact mode)."""
+    rads = []
+    for z in (1.0, 3.0, 4.5):
+        rads += [{"name": f"Ed_{z:g}", "quantity": "Ed", "position": [0.0, 0.0, -z]},
+                 {"name": f"Eou_{z:g}", "quantity": "Eou", "position": [0.0, 0.0, -z]},
+                 {"name": f"Lu_{z:g}", "quantity": "radiance", "position": [0.0, 0.0, -z],
+                  "direction": [0.0, 0.0, -1.0], "half_angle_deg": float(np.degrees(np.arccos(0.9)))}]
+    return Scene.from_dict({
+        "photic_scene": 1, "name": "bottom",
+        "materials": {"bottom": {"type": "lambertian", "reflectance": [0.5]}},
+        "water": [{"name": "sea", "type": "ocean", "ior": 1.34, "surface": {"kind": "flat", "z": 0.0},
+                   "iops": {"absorption": [0.1], "b": [0.9], "phase": {"type": "petzold"}},
+                   "bottom": {"depth": 5.0, "material": "bottom"}}],
+        "sun": {"zenith_deg": zenith, "azimuth_deg": 0.0, "irradiance": [1.0]},
+        "sky": {"type": "black"}, "radiometers": rads,
+        "settings": {"integrator": "hybrid", "seed": seed, "forward_cone_deg": cone}})
+
+
 def scene(surface: str, zenith: float, cone: float, seed: int, camera: bool) -> Scene:
+    if surface == "bottom":  # (radiometers only)
+        return bottom_scene(seed, zenith, cone)
     rads = [{"name": f"{q}_{z:g}", "quantity": q, "position": [0.3, 0.7, -z]}
             for z in DEPTHS for q in ("Ed", "Eo")]
     cams = [{"name": "floor", "type": "perspective", "position": [0.3, 0.7, -1.0],
@@ -121,7 +147,7 @@ def markdown(rows: list[dict]) -> str:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=16)
-    ap.add_argument("--surfaces", default="flat,waves")
+    ap.add_argument("--surfaces", default="flat,waves", help="flat, waves, bottom (bottom_scene)")
     ap.add_argument("--zeniths", default="0,30,80")
     ap.add_argument("--cones", default="0,3")
     ap.add_argument("--samples", default="1024,8192,65536")

@@ -11,6 +11,7 @@ except ImportError:
 # --- z-score report -----------------------------------------------------------------------
 # Statistical tests record (test, quantity, value, reference, standard error, z) here; the
 # table is printed at the end of the run so every z-score is visible in CI logs.
+import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 _ZSCORES: list[tuple] = []
@@ -29,14 +30,67 @@ def zscore(request):
     return record
 
 
-def pytest_terminal_summary(terminalreporter):
-    if not _ZSCORES:
-        return
+_CALIBRATION: list[tuple] = []
+
+
+@pytest.fixture
+def calibration():
+    """calibration(scene, quantity, samples, ratio, flagged): the spread of seeds' means over
+    the median reported standard error, recorded for the closing table (the physics gate)."""
+    def record(scene, quantity, samples, ratio, flagged):
+        _CALIBRATION.append((scene, quantity, samples, ratio, flagged))
+    return record
+
+
+def pytest_addoption(parser):
+    parser.addoption("--gate-report", default=None, metavar="FILE",
+                     help="write the run's z-scores and error-bar calibration as Markdown (the physics gate)")
+
+
+def _gate_markdown(session_seconds: float, outcome: str) -> str:
+    lines = [f"Run: `.venv/bin/python -m pytest -m gate`, {outcome}, {session_seconds / 60:.1f} min.", ""]
+    if _CALIBRATION:
+        lines += ["Error bars: spread of 16 seeds' means / median reported standard error "
+                  "(flagged: seeds whose error Photic marked as not to be trusted).", "",
+                  "| scene | quantity | samples | spread / SE | flagged |", "| --- | --- | --- | --- | --- |"]
+        lines += [f"| {sc} | {q} | {n:,} | {r:.2f} | {f} |" for sc, q, n, r, f in _CALIBRATION]
+        lines.append("")
+    if _ZSCORES:
+        zs = np.array([abs(z) for *_, z in _ZSCORES if np.isfinite(z)])
+        lines += [f"z-scores: {len(_ZSCORES)} comparisons with references or between integrators; "
+                  f"|z| median {np.median(zs):.2f}, largest {zs.max():.2f}; "
+                  f"{int(np.sum(zs > 3))} above 3.", "",
+                  "| test | quantity | value | reference | stderr | z |", "| --- | --- | --- | --- | --- | --- |"]
+        lines += [f"| {t} | {q} | {v:.6g} | {ref:.6g} | {se:.3g} | {z:.2f} |" for t, q, v, ref, se, z in _ZSCORES]
+    return "\n".join(lines) + "\n"
+
+
+def pytest_sessionstart(session):
+    import time
+    session.config._photic_t0 = time.perf_counter()
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus=0, config=None):
     tr = terminalreporter
-    tr.section("Monte Carlo checks: z = (value - reference) / standard error")
-    tr.write_line(f"{'test':<44} {'quantity':<34} {'value':>12} {'reference':>12} {'stderr':>10} {'z':>7}")
-    for test, label, v, ref, se, z in _ZSCORES:
-        tr.write_line(f"{test[:44]:<44} {label[:34]:<34} {v:12.6g} {ref:12.6g} {se:10.3g} {z:7.2f}")
+    if _CALIBRATION:
+        tr.section("Error bars: spread of seeds' means / median reported standard error")
+        tr.write_line(f"{'scene':<40} {'quantity':<18} {'samples':>9} {'ratio':>7} {'flagged':>8}")
+        for sc, q, n, r, f in _CALIBRATION:
+            tr.write_line(f"{sc[:40]:<40} {q[:18]:<18} {n:9d} {r:7.2f} {f:8d}")
+    if _ZSCORES:
+        tr.section("Monte Carlo checks: z = (value - reference) / standard error")
+        tr.write_line(f"{'test':<44} {'quantity':<34} {'value':>12} {'reference':>12} {'stderr':>10} {'z':>7}")
+        for test, label, v, ref, se, z in _ZSCORES:
+            tr.write_line(f"{test[:44]:<44} {label[:34]:<34} {v:12.6g} {ref:12.6g} {se:10.3g} {z:7.2f}")
+    config = config or tr.config
+    path = config.getoption("--gate-report")
+    if path:
+        import time
+        stats = {k: len(v) for k, v in tr.stats.items() if k in ("passed", "failed", "error", "skipped")}
+        outcome = ", ".join(f"{n} {k}" for k, n in stats.items())
+        seconds = time.perf_counter() - getattr(config, "_photic_t0", time.perf_counter())
+        Path(path).write_text(_gate_markdown(seconds, outcome))
+        tr.write_line(f"gate report: {path}")
 
 
 @pytest.fixture(autouse=True)

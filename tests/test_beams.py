@@ -8,6 +8,8 @@ from photic.compile import compile_scene
 from photic.render import render
 from photic.scene import Scene
 
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
 
 def wave_patch(period=1.0, n=32, amp=0.01):
     """A periodic height field z = amp sin(kx) sin(ky): crests focus the sun at ~ n R/(n-1)."""

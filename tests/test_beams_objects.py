@@ -19,6 +19,8 @@ from photic.compile import compile_scene
 from photic.render import render
 from photic.scene import Scene
 
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
 PERIOD = 20.0  # the wave patch's period (m)
 
 

@@ -9,6 +9,8 @@ from geometry import box, height_field
 from photic.render import render
 from photic.scene import Scene
 
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
 Z_MAX = 4.0
 
 

@@ -45,6 +45,7 @@ def radiometer_ratios(surface, zenith, cone, samples, names):
     return {n: (spread_ratio(means[n], ses[n]), flags[n]) for n in names}
 
 
+@pytest.mark.gate
 @pytest.mark.parametrize("samples", [1024, 8192])
 def test_radiometer_error_bars_are_honest_at_grazing_sun_over_a_flat_sea(samples):
     """The issue's case: a real sun at 80 deg, flat sea, hybrid, forward cone 3 deg: Ed and Eo
@@ -65,6 +66,7 @@ def test_radiometer_error_bars_are_honest_elsewhere(surface, zenith, samples):
             assert 0.7 <= ratio <= 1.5, (name, ratio)
 
 
+@pytest.mark.gate
 def test_exact_mode_error_bars_are_honest():
     """Forward cone 0 (the full phase function): paths heading towards the refracted sun
     multiply two forward peaks; beam-guided continuations (photic core, kBeamGuide) keep
@@ -75,6 +77,7 @@ def test_exact_mode_error_bars_are_honest():
         assert 0.6 <= ratio <= 1.6, (name, ratio, flagged)
 
 
+@pytest.mark.gate
 def test_pixel_error_bars_are_honest_under_waves():
     """Image pixels of the floor under waves (caustics that move with the sun's direction),
     hybrid at 16 samples per pixel (5 passes, each with its own beams): the median over pixels
@@ -92,6 +95,7 @@ def test_pixel_error_bars_are_honest_under_waves():
     assert np.all(np.isinf(one.variance))
 
 
+@pytest.mark.gate
 def test_paired_passes_and_their_strata():
     """Paired passes: an even number >= 8, sizes within one of each other summing to the
     samples; pass 2k and 2k + 1 draw in stratum k of a grid covering the square once."""

@@ -15,12 +15,20 @@ Installing and rendering run in a child Python, as a fresh Blender would, isolat
   ``sys.path`` is a folder of links to what a Blender bundles (bpy itself, numpy, requests, ...),
   so every other import must come from the wheels the extension installed, and the test checks
   that they do.
+
+A second run does the same with the system's Embree and TBB out of the loader's reach (a
+private mount namespace in which /dev/null is bind-mounted over every libembree*/libtbb* file in
+the system's library folders): the engine must find Embree in the extension's embreex wheel,
+which carries its own TBB. It needs root (or CAP_SYS_ADMIN) for the namespace, and skips
+without.
 """
 from __future__ import annotations
 
 import importlib.util
 import json
 import os
+import shlex
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -63,9 +71,13 @@ CHILD = textwrap.dedent("""
     import photic, photic._core, trimesh, jsonschema, OpenEXR, embreex.rtcore_scene
     files = {m.__name__: m.__file__ for m in (photic, photic._core, trimesh, jsonschema,
                                               OpenEXR, embreex)}
+    with open("/proc/self/maps") as maps:  # every Embree and TBB this process has mapped
+        paths = {ln.split(maxsplit=5)[-1].strip() for ln in maps}
+        mapped = sorted(f for f in paths if f.rsplit("/", 1)[-1].startswith(("libembree", "libtbb")))
     print("RESULT " + json.dumps({"ext_dir": ext_dir, "files": files,
                                   "image": summary["image"], "tables": summary["tables"],
-                                  "mesh_image": meshes["image"]}))
+                                  "mesh_image": meshes["image"], "embree": photic._core.EMBREE,
+                                  "mapped": mapped}))
 """)
 
 
@@ -84,7 +96,37 @@ def extension_zip(tmp_path_factory) -> Path:
     return zip_path
 
 
-def test_extension_installs_and_renders(extension_zip, tmp_path):
+# The system's libraries that the hidden run takes away, and a check that they are gone.
+SYSTEM_LIB_DIRS = ["/usr/lib/x86_64-linux-gnu", "/usr/lib64", "/usr/lib", "/usr/local/lib"]
+HIDDEN_PATTERNS = ["libembree*.so*", "libtbb*.so*"]
+PROBE = textwrap.dedent("""
+    import ctypes
+    for name in ("libembree3.so.3", "libembree4.so.4", "libtbb.so.12"):
+        try:
+            ctypes.CDLL(name)
+        except OSError:
+            continue
+        raise SystemExit(name + " is still loadable")
+""")
+
+
+def system_libraries() -> list[str]:
+    found = {str(p.resolve()) for d in SYSTEM_LIB_DIRS for pat in HIDDEN_PATTERNS
+             for p in Path(d).glob(pat)}
+    return sorted(f for f in found if Path(f).is_file())
+
+
+def hiding(files: list[str]) -> list[str]:
+    """A command prefix running its command where ``files`` read as empty (a private mount
+    namespace), after checking that the loader no longer finds Embree or TBB."""
+    mounts = "".join(f"mount --bind /dev/null {shlex.quote(f)} && " for f in files)
+    probe = f"{shlex.quote(sys.executable)} -I -S -c {shlex.quote(PROBE)}"
+    return ["unshare", "--mount", "sh", "-c", f'{mounts}{probe} && exec "$@"', "sh"]
+
+
+def install_and_render(extension_zip: Path, tmp_path: Path, prefix: list[str] = ()) -> dict:
+    """The zip installed into a fresh Blender user folder by a child Python that then renders
+    (the module docstring); its RESULT record, checked for where every import came from."""
     spec = importlib.util.find_spec("bpy")
     assert spec is not None, "bpy (Blender as a Python module) is not installed: run scripts/install.sh"
     site_packages = Path(spec.submodule_search_locations[0]).parent
@@ -102,7 +144,7 @@ def test_extension_installs_and_renders(extension_zip, tmp_path):
                BLENDER_USER_DATAFILES=str(user / "datafiles"))
     out_dir = tmp_path / "out"
     proc = subprocess.run(
-        [sys.executable, "-I", "-S", "-c", CHILD, str(blender_site), str(extension_zip),
+        [*prefix, sys.executable, "-I", "-S", "-c", CHILD, str(blender_site), str(extension_zip),
          str(BLEND), str(MESH_BLEND), str(out_dir)],
         env=env, cwd=tmp_path, capture_output=True, text=True, timeout=600)
     lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
@@ -116,9 +158,28 @@ def test_extension_installs_and_renders(extension_zip, tmp_path):
     for name, path in result["files"].items():
         assert Path(path).is_relative_to(wheels_site), (name, path)
         assert not Path(path).resolve().is_relative_to(ROOT), (name, path)
+    # The engine traces with the Embree of the extension's embreex wheel.
+    assert Path(result["embree"].split(" from ", 1)[1]).is_relative_to(wheels_site), result["embree"]
 
     assert Path(result["image"]).is_file() and Path(result["image"]).suffix == ".exr"
     assert Path(result["image"]).parent == out_dir
     assert Path(result["mesh_image"]).is_file()
     csv = [Path(p) for p in result["tables"] if p.endswith(".csv")]
     assert csv and csv[0].is_file() and csv[0].stat().st_size > 0
+    return result
+
+
+def test_extension_installs_and_renders(extension_zip, tmp_path):
+    install_and_render(extension_zip, tmp_path)
+
+
+def test_extension_renders_without_system_embree_or_tbb(extension_zip, tmp_path):
+    if shutil.which("unshare") is None or subprocess.run(
+            ["unshare", "--mount", "true"], capture_output=True).returncode != 0:
+        pytest.skip("no private mount namespace here (unshare --mount needs root or CAP_SYS_ADMIN)")
+    result = install_and_render(extension_zip, tmp_path, hiding(system_libraries()))
+    # Only the wheel's Embree and TBB, and those bpy bundles, were mapped; nothing of the system's.
+    bpy_dir = Path(importlib.util.find_spec("bpy").submodule_search_locations[0]).resolve()
+    wheels_site = Path(result["files"]["photic"]).parents[1]
+    for path in result["mapped"]:
+        assert Path(path).is_relative_to(wheels_site) or Path(path).is_relative_to(bpy_dir), path

@@ -9,6 +9,8 @@ from analytic import FloorCase, cube_cameras, cube_pixel_integrals, pixel_integr
 from photic.render import render
 from photic.scene import Scene
 
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
 Z_MAX = 4.0
 PRECISE = 0.0025  # relative standard error an irradiance must reach here
 IRRADIANCES = ("Ed", "Eu", "Eo", "Eod", "Eou")

@@ -13,6 +13,8 @@ from photic.render import Renderer
 from photic.scene import Scene, SceneError
 from photic.surface import glint_reflectance
 
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
 
 def sea_scene(zenith, wind, camera_dir=(0.0, 0.0, -1.0), sky=None, integrator="path",
               resolution=(32, 32), kind="flat"):

@@ -11,6 +11,8 @@ import pytest
 from photic.render import render
 from photic.scene import IOPGrid, Scene, SceneError
 
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
 N_W = 1.34
 Z_MAX = 3.0
 

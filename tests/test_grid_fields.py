@@ -14,6 +14,8 @@ from photic.scene import GridField, IOPGrid, Scene, SceneError
 from test_grid import (N, RADS, Z_MAX, _exact_integral, _sparse_field, absorbing_grid, add, compare,
                        grid, mixture, rad, sea)
 
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
 BOX = ([-1.5, -2.0, -4.0], [3.0, 4.0, 4.2])  # (the top above the surface)
 
 

@@ -6,6 +6,8 @@ from analytic import sun_disk_planar_irradiance, transmitted_uniform_sky
 from photic.render import render
 from photic.scene import Scene
 
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
 
 def scene(water_iops, sun=None, sky=None, radiometers=(), cameras=(), **kw):
     d = {"photic_scene": 1, "name": "hard",

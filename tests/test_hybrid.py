@@ -6,6 +6,8 @@ from photic import _core
 from photic.render import render
 from photic.scene import Scene
 
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
 Z_AGREE = 3.0  # hybrid and path tracing agree within 3 combined standard errors
 
 

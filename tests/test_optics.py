@@ -6,6 +6,8 @@ import pytest
 
 from photic import _core
 
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
 N_W = 1.34
 
 

@@ -6,6 +6,8 @@ from scipy import stats
 
 from photic import phase
 
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
 CASES = {
     "isotropic": ("isotropic", {}),
     "hg_-0.5": ("henyey_greenstein", {"g": -0.5}),

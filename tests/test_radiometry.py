@@ -7,6 +7,8 @@ from analytic import simpson, transmitted_uniform_sky
 from photic.render import render
 from photic.scene import Scene
 
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
 N_W = 1.34
 Z_MAX = 4.0  # |z| above this fails: ~6e-5 false alarms per check, a real bias fails
 

@@ -21,6 +21,8 @@ from photic.compile import compile_scene
 from photic.render import render
 from photic.scene import Scene
 
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
 
 def mirror_sea(integrator="hybrid", diameter=0.53, zenith=40.0, plate=True, rough=False):
     """A flat sea that absorbs everything (a = 50 per m), black sky, a grey plate 1.5 m above it,

@@ -8,6 +8,8 @@ from scipy import stats
 
 from photic import _core, surface
 
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
 ETA = surface.N_WATER
 
 

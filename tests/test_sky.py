@@ -8,6 +8,8 @@ from photic.render import Renderer
 from photic.scene import Scene, SceneError
 from photic.sky import harrison_coombes, horizontal_irradiance, sky_table
 
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
 
 def hc_scene(cloud=0.0, zenith=40.0):
     return Scene.from_dict({

@@ -14,6 +14,8 @@ from photic.render import render
 from photic.scene import (IOPProfile, IOPs, PhaseFunction, ScatteringComponent, Scene,
                           SceneError)
 
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
 N_W = 1.34
 Z_MAX = 3.0   # closed forms and cross-checks: within 3 standard errors
 

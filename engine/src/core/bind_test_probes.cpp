@@ -37,6 +37,14 @@ py::tuple march_result(const VoxelGrid::Cursor& c, bool hit, const double* rho, 
 
 void bind_test_probes(py::class_<Scene>& scene) {
     scene
+        .def_static("embree_error_probe", [] {
+            // A failing Embree call (there is no geometry type 999) on a device of the core's.
+            RTCDevice device = new_embree_device();
+            RTCGeometry g = rtcNewGeometry(device, RTCGeometryType(999));
+            if (g) rtcReleaseGeometry(g);
+            rtcReleaseDevice(device);
+            check_embree("rtcNewGeometry");
+        }, "Raises the EmbreeError that Embree's error callback turned the failure of a call into.")
         .def("time_beam_lookups", [](const Scene& s, py::array_t<double, py::array::c_style | py::array::forcecast> points,
                                      int medium, int repeats) {
             // The beams at each point, `repeats` times over (one thread, no GIL): (beams found

@@ -210,10 +210,18 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
     // found light they already counted.
     int reflect_state = reflect_covered ? 1 : 0;
     double bv_weight = first_beam_weight;  // MIS weight of this segment's beam scattering
+    double guided_weight = 1.0;  // product of the guided continuations' weights (kGuidedWeightScale)
 
     for (;;) {
         Hit h;
         double t_hit;
+        // Whether this vertex's guided mixture sent the path into the beam's forward peak (its
+        // direction more likely under the beam-direction pdf than under the vertex's own): such
+        // a path carries the guide's small weight, and Russian roulette, which would return
+        // the survivors to a weight of about 1 at the odds of that small weight, would make
+        // exactly the rare, huge samples the guide removes; it is skipped there (a choice that
+        // depends only on the path so far, so the estimate stays unbiased).
+        bool into_peak = false;
         if (medium >= 0) {
             const Water& w = waters[medium];
             bool scattered = false;
@@ -356,7 +364,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 // light there, so the next vertex's beam term, which multiplies two forward
                 // peaks, no longer makes rare huge samples (the exact mode's heavy tails).
                 const bool guide = beams_here && cone_x == 0.0;
-                const double gp = kBeamGuide * qb;
+                const double gp = kBeamGuide * qb * std::min(1.0, kGuidedWeightScale / guided_weight);
                 if (guide && rng.uniform() < gp) nd = sample_beam_direction(w, bd, rng);
                 double pa = 0.0;
                 if (nc > 1 || beams_here) {
@@ -369,6 +377,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 const double pmix = beams_here ? mixture(pa, beam_direction_pdf(w, bd, nd)) : pa;
                 if (nc > 1 || guide)
                     for (int k = 0; k < nb; ++k) beta.v[k] *= pmix > 0 ? band_phase(k) / pmix : 0.0;
+                if (guide && pmix > 0.0) guided_weight *= pa / pmix;
                 if (beams_here) {
                     // Beam-scattering MIS: the next segment's beam term (directions from the
                     // continuation's pdf here) is weighted against a second direction drawn from
@@ -376,6 +385,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                     // taken with probability qb (balance heuristic with q samples expected).
                     double pb = beam_direction_pdf(w, bd, nd);
                     bv_weight = pmix / (pmix + qb * pb);
+                    into_peak = guide && pb > pa;
                     Vec3 wb;
                     double pa_b = 0.0, pb_b = 0.0;
                     if (qb >= 1.0 || rng.uniform() < qb) {
@@ -398,7 +408,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 d = nd;
                 sun_covered = false;   // no straight connection to the sun from inside water
                 beam_covered = hybrid; // the beams already count the sun arriving here straight
-                if (depth >= rr_depth) {
+                if (depth >= rr_depth && !into_peak) {
                     double q = std::min(0.95, max_component(beta, nb) * walk.absorbed_bound(w));
                     if (!(rng.uniform() < q)) return out;
                     for (int k = 0; k < nb; ++k) beta.v[k] /= q;
@@ -491,7 +501,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 const Vec3 bd = best->d;
                 const double q = camera ? beam_mis_share(w, *best) : 1.0;
                 const bool guide = cone_half_angle == 0.0;
-                const double gp = kBeamGuide * q;
+                const double gp = kBeamGuide * q * std::min(1.0, kGuidedWeightScale / guided_weight);
                 if (guide && rng.uniform() < gp) nd = sample_beam_direction(w, bd, rng);
                 auto mixture = [&](double pa_v, double pb_v) {
                     return guide ? (1.0 - gp) * pa_v + gp * pb_v : pa_v;
@@ -499,7 +509,9 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 double pa = std::max(0.0, dot(n, nd)) * kInvPi, pb = beam_direction_pdf(w, bd, nd);
                 const double pm = mixture(pa, pb);
                 if (guide) scale = pm > 0.0 ? pa / pm : 0.0;
+                guided_weight *= scale;
                 bv_weight = pm / (pm + q * pb);
+                into_peak = guide && pb > pa;
                 Vec3 wb;
                 double cb = 0.0;
                 if (q >= 1.0 || rng.uniform() < q) {
@@ -601,7 +613,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
             }
             sun_covered = false;  // a specular event: NEE could not have seen this path
         }
-        if (depth >= rr_depth) {
+        if (depth >= rr_depth && !into_peak) {
             double bound = medium >= 0 ? walk.absorbed_bound(waters[medium]) : 1.0;
             double q = std::min(0.95, max_component(beta, nb) * bound);
             if (!(q > 0.0) || !(rng.uniform() < q)) return out;
@@ -1005,8 +1017,6 @@ void Scene::trace_rays(const float* o, const float* d, size_t n, int threads, fl
     size_t nblocks = (n + kBlock - 1) / kBlock;
     parallel_for(nblocks, threads, [&](size_t blk, int) {
         size_t b = blk * kBlock, e = std::min(n, b + kBlock);
-        RTCIntersectContext ctx;
-        rtcInitIntersectContext(&ctx);
         for (size_t i = b; i < e; ++i) {
             RTCRayHit rh;
             rh.ray.org_x = o[3 * i]; rh.ray.org_y = o[3 * i + 1]; rh.ray.org_z = o[3 * i + 2];
@@ -1014,7 +1024,7 @@ void Scene::trace_rays(const float* o, const float* d, size_t n, int threads, fl
             rh.ray.tnear = 0.0f; rh.ray.tfar = tmax ? tmax[i] : std::numeric_limits<float>::infinity();
             rh.ray.time = 0.0f; rh.ray.mask = 0xFFFFFFFFu; rh.ray.id = 0; rh.ray.flags = 0;
             rh.hit.geomID = RTC_INVALID_GEOMETRY_ID; rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-            rtcIntersect1(scene_, &ctx, &rh);
+            rtcIntersect1(scene_, &rh);
             t_out[i] = rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? -1.0f : rh.ray.tfar;
         }
     });

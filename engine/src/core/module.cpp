@@ -60,6 +60,11 @@ py::dict counters_dict(const Counters& c) {
 
 PYBIND11_MODULE(_core, m) {
     m.doc() = "Photic compiled core: Embree geometry, phase functions and the path tracer";
+    // Embree 4 from the embreex wheel, where photic.embree finds it; checked before anything
+    // else, so a missing or unusable library fails the import with the reason.
+    const auto embree_path = py::module_::import("photic.embree").attr("library_path")().cast<std::string>();
+    m.attr("EMBREE") = load_embree(embree_path);
+    py::register_exception<EmbreeError>(m, "EmbreeError", PyExc_RuntimeError);
     m.attr("MAX_BANDS") = kMaxBands;
     bind_rough_interface(m);
     m.attr("COMPONENTS") = py::make_tuple("total", "beam_surface", "beam_volume", "path", "beam_direct");

@@ -9,25 +9,10 @@ namespace photic {
 namespace {
 
 RTCScene build_embree_scene(RTCDevice device, const std::vector<const MeshRecord*>& meshes) {
-    RTCScene scene = rtcNewScene(device);
-    rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
-    rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
-    for (const MeshRecord* m : meshes) {
-        size_t nv = m->vertices.size() / 3, nt = m->triangles.size() / 3;
-        RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-        auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
-            g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
-        auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
-            g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), nt));
-        if (!vb || !ib) throw std::runtime_error("Embree could not allocate geometry buffers");
-        std::memcpy(vb, m->vertices.data(), m->vertices.size() * sizeof(float));
-        std::memcpy(ib, m->triangles.data(), m->triangles.size() * sizeof(uint32_t));
-        rtcCommitGeometry(g);
-        rtcAttachGeometry(scene, g);  // ids are assigned 0, 1, 2, ... in order
-        rtcReleaseGeometry(g);
-    }
-    rtcCommitScene(scene);
-    return scene;
+    std::vector<TriangleMeshView> views;
+    for (const MeshRecord* m : meshes)
+        views.push_back({m->vertices.data(), m->vertices.size() / 3, m->triangles.data(), m->triangles.size() / 3});
+    return new_triangle_scene(device, views);
 }
 
 RTCRayHit make_rayhit(const Vec3& o, const Vec3& d, double tmin, double tmax) {
@@ -43,14 +28,14 @@ RTCRayHit make_rayhit(const Vec3& o, const Vec3& d, double tmin, double tmax) {
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instPrimID[0] = RTC_INVALID_GEOMETRY_ID;
     return rh;
 }
 
 }  // namespace
 
 Scene::Scene() {
-    device_ = rtcNewDevice(nullptr);
-    if (!device_) throw std::runtime_error("Embree device could not be created");
+    device_ = new_embree_device();
 }
 
 Scene::~Scene() {
@@ -232,10 +217,8 @@ bool Scene::intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit,
         // Trace in the patch's own frame from the point where the ray enters this tile.
         Vec3 shift(double(i) * patch_lx, double(j) * patch_ly, 0.0);
         Vec3 local = o + d * t_cur - shift;
-        RTCIntersectContext ctx;
-        rtcInitIntersectContext(&ctx);
         RTCRayHit rh = make_rayhit(local, d, 0.0, (t_exit - t_cur) + tol);
-        rtcIntersect1(patch_scene_, &ctx, &rh);
+        rtcIntersect1(patch_scene_, &rh);
         if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
             double t = t_cur + double(rh.ray.tfar);
             if (t > 0.0 && t < tmax) {
@@ -265,10 +248,8 @@ bool Scene::intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit,
 Hit Scene::intersect(const Vec3& o, const Vec3& d, double tmax, Side side) const {
     Hit hit;
     hit.t = tmax;
-    RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
     RTCRayHit rh = make_rayhit(o, d, 0.0, tmax);
-    rtcIntersect1(scene_, &ctx, &rh);
+    rtcIntersect1(scene_, &rh);
     if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
         const MeshRecord& m = meshes[rh.hit.geomID];
         hit.valid = true;
@@ -318,10 +299,8 @@ Hit Scene::intersect_ocean(const Vec3& o, const Vec3& d, double tmax, Side side)
 }
 
 bool Scene::occluded(const Vec3& o, const Vec3& d, Side side) const {
-    RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
     RTCRayHit rh = make_rayhit(o, d, 0.0, kInf);
-    rtcOccluded1(scene_, &ctx, &rh.ray);
+    rtcOccluded1(scene_, &rh.ray);
     if (rh.ray.tfar < 0.0f) return true;
     return occluded_ocean(o, d, side);
 }
@@ -353,10 +332,8 @@ bool Scene::meshes_block(const Vec3& o, const Vec3& d, double tnear, double tfar
         t1 = std::min(t1, tb);
     }
     if (!(t0 <= t1)) return false;
-    RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
     RTCRayHit rh = make_rayhit(o, d, tnear, tfar);
-    rtcOccluded1(scene_, &ctx, &rh.ray);
+    rtcOccluded1(scene_, &rh.ray);
     return rh.ray.tfar < 0.0f;
 }
 

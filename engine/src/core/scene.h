@@ -1,7 +1,6 @@
 // The compiled scene: geometry in Embree, water bodies, sun, sky and sensors.
 // Built once from Python (photic.compile), then traced from many threads without the GIL.
 #pragma once
-#include <embree3/rtcore.h>
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -16,6 +15,7 @@
 #include "rough_interface.h"
 #include "medium.h"
 #include "huge_pages.h"
+#include "embree4_api.h"
 
 namespace photic {
 
@@ -25,6 +25,15 @@ constexpr int kMaxBeams = 64;      // beams summed at one point (overlaps in str
 // Exact mode (forward cone 0): the fraction of path continuations drawn around a beam's
 // reverse (Scene::trace, radiometer_sample).
 constexpr double kBeamGuide = 0.25;
+// The guided continuations' weights (own pdf over the mixture's: about 1 / (1 - kBeamGuide) away
+// from the beam) multiply along a path: at a fixed fraction they grow geometrically with the
+// number of scatterings (4/3 per vertex), and in high-albedo water the rare long paths carried
+// weights of thousands (heavy tails). So once their product exceeds kGuidedWeightScale a path
+// guides less often, kBeamGuide * kGuidedWeightScale / product, which keeps the product's growth
+// about linear in the number of vertices while every vertex still guides some of its paths
+// (without that, a path that arrives straight at the beam's reverse by its phase function alone
+// is the heavy tail the guide exists to remove).
+constexpr double kGuidedWeightScale = 2.0;
 
 struct Material {  // Lambertian
     Spectrum reflectance;

@@ -344,6 +344,8 @@ def format_table(records: list[dict]) -> str:
                  "core's own rtcIntersect1 on the same triangles and Embree flags, rays to infinity; "
                  "ratio_clipped: over the same native rays cut at free paths of the water's "
                  "scattering majorant, as the engine's path segments are.")
+    # (A core built before it loaded embreex's library linked the system's Embree 3.)
+    lines.append(f"The core's Embree: {getattr(_core, 'EMBREE', 'the system Embree 3, linked')}.")
     lines.append("What limits the engine: each path segment is one scalar rtcIntersect1 plus the "
                  "physics (free-path sampling, phase-function or Fresnel sampling, the RNG, path "
                  "bookkeeping). In water the ray is traced only up to the sampled collision "
