@@ -8,6 +8,7 @@ import pytest
 from photic import waves as W
 from photic.render import render
 from photic.scene import OceanSurface, Scene, SceneError, TriangleMesh, WaterBody, IOPs
+from analytic import trapezoid
 
 G = 9.80665
 
@@ -198,7 +199,7 @@ def test_choppy_single_wave_is_a_trochoid():
 def moments(model):
     w = np.geomspace(0.02, 80.0, 200001)
     s = W.frequency_spectrum(model, w)
-    return w, s, np.trapz(s, w)
+    return w, s, trapezoid(s, w)
 
 
 def test_pierson_moskowitz_significant_wave_height():
@@ -252,7 +253,7 @@ def test_directional_spectrum_integrates_to_the_frequency_spectrum(depth, spread
     theta = np.linspace(-math.pi, math.pi, 721)
     kk, tt = np.meshgrid(k, theta, indexing="ij")
     psi = W.directional_spectrum(model, kk * np.cos(tt), kk * np.sin(tt))
-    total = np.trapz(np.trapz(psi * kk, theta, axis=1), k)
+    total = trapezoid(trapezoid(psi * kk, theta, axis=1), k)
     assert total == pytest.approx(moments(model)[2], rel=1e-4)
 
 
