@@ -1180,6 +1180,15 @@ inline bool may_cover(const Key& K, const Vec3& y, int medium, bool shifted) {
 
 }  // namespace
 
+double Scene::beam_patch_copies() const {
+    if (ocean_water < 0 || ocean_flat) return 1.0;
+    auto copies = [&](const BeamGrid& g) {
+        if (g.nx == 0) return 1.0;  // as find_candidates' range of periods (i0..i1, j0..j1)
+        return (std::floor(g.nx * g.cell.x / patch_lx) + 1.0) * (std::floor(g.ny * g.cell.y / patch_ly) + 1.0);
+    };
+    return std::max(water_grid_ ? copies(*water_grid_) : 1.0, copies(air_grid_));
+}
+
 int Scene::lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
                   const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const {
     thread_local std::vector<BeamCandidate> found;  // per thread: kept, so rarely grown

@@ -240,6 +240,10 @@ public:
     // to rank the beams, as strongest_beam does.
     int beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool exact = true) const;
     double beam_total_flux() const;   // sum of prism fluxes entering the water (band 0)
+    // The most copies of the periodic ocean patch that one beam lookup visits (1 without one):
+    // the beams of every period that reach a point, whose count grows as (spread / period)^2
+    // where a small patch's beams spread over many periods on their way down.
+    double beam_patch_copies() const;
     // Whether this pass's water beams are looked up in the grid built for the sun's centre.
     bool beam_grid_shared() const { return water_grid_ == &grid_ref_.grid; }
     double air_beam_total_flux() const;   // sum of the reflected prisms' fluxes (band 0)
