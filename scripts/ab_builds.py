@@ -1,15 +1,19 @@
 """Paired speed comparison of two builds of the core (``_core*.so`` files), for changes whose
 effect (a few per cent) is smaller than this machine's run-to-run noise between processes.
 
-    .venv/bin/python scripts/ab_builds.py OLD.so NEW.so [--case pool|segments] [--rounds 10]
+    .venv/bin/python scripts/ab_builds.py OLD.so NEW.so [--case pool|segments|wavebuild|waves] [--rounds 10]
                                           [--threads 1] [--resolution 128] [--spp 4]
+                                          [--member "issue"] [--samples 1000]
 
 Each build is loaded in its own worker process, which compiles the scene once and then, on
 request, runs one unit of work: ``pool``, a pass of the stepped pool's underwater view (hybrid,
 exact mode, beams built once; process CPU seconds), ``segments``, path tracing of bench's
-``mesh_in_water`` radiometers (wall nanoseconds per path segment), or ``rays``, the core's own
+``mesh_in_water`` radiometers (wall nanoseconds per path segment), ``rays``, the core's own
 ``trace_rays`` on that scene's raw triangles, 2**20 random rays to infinity as ``photic bench``'s
-native column (wall nanoseconds per ray). The two workers take turns,
+native column (wall nanoseconds per ray), ``wavebuild``, a beam build under a member of the
+radiometers-under-waves family (photic.bench_waves; CPU seconds), or ``waves``, one pass of that
+member's 64 radiometers, ``samples`` each, with the beams built once (CPU microseconds per
+sample). The two workers take turns,
 ``rounds`` times each, in alternating order, so that drifts of the machine's load fall on both;
 it prints both medians, their ratio and the median of the per-round ratios, and whether the two
 builds computed the same sums (a change meant to be bit-identical must say True).
@@ -28,7 +32,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def worker(so: str, case: str, threads: int, resolution: int, spp: int) -> None:
+def worker(so: str, case: str, threads: int, resolution: int, spp: int, member: str, samples: int) -> None:
     import importlib.util
     import time
 
@@ -53,6 +57,28 @@ def worker(so: str, case: str, threads: int, resolution: int, spp: int) -> None:
             t0 = time.process_time()
             total, _, _ = core.render_camera(0, 0, spp, threads)
             return time.process_time() - t0, float(total.sum())
+    elif case in ("wavebuild", "waves"):
+        import numpy as np
+
+        from photic import bench_waves
+        from photic.render import sun_direction
+        m = next(m for m in bench_waves.WAVE_FAMILY if m.name == member)
+        scene = bench_waves.wave_member_scene(m, "waves", samples)
+        scene.validate()
+        core = compile_scene(scene, seed=7, hybrid=True, forward_cone_deg=0.0)
+        rng = np.random.default_rng(3)
+        core.build_beams(tuple(sun_direction(scene, 0.5, 0.5)), threads)
+
+        def unit():
+            if case == "wavebuild":  # a direction drawn in the sun's disk, the same in both workers
+                t0 = time.process_time()
+                core.build_beams(tuple(sun_direction(scene, *rng.random(2))), threads)
+                return time.process_time() - t0, float(core.beam_total_flux())
+            t0, total = time.process_time(), 0.0
+            for i in range(len(scene.radiometers)):
+                s, _, _ = core.render_radiometer(i, 0, samples, threads)
+                total += float(s.sum())
+            return (time.process_time() - t0) / (samples * len(scene.radiometers)) * 1e6, total
     elif case == "rays":
         from photic import bench
         bs = bench.mesh_in_water()
@@ -88,18 +114,21 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("old")
     ap.add_argument("new")
-    ap.add_argument("--case", choices=("pool", "segments", "rays"), default="pool")
+    ap.add_argument("--case", choices=("pool", "segments", "rays", "wavebuild", "waves"), default="pool")
     ap.add_argument("--rounds", type=int, default=10)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--resolution", type=int, default=128)
     ap.add_argument("--spp", type=int, default=4)
+    ap.add_argument("--member", default="issue", help="wavebuild, waves: the family member (by name)")
+    ap.add_argument("--samples", type=int, default=1000, help="waves: samples per radiometer")
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     if a.worker:
-        worker(a.worker, a.case, a.threads, a.resolution, a.spp)
+        worker(a.worker, a.case, a.threads, a.resolution, a.spp, a.member, a.samples)
         return 0
     cmd = [sys.executable, __file__, a.old, a.new, "--case", a.case, "--threads", str(a.threads),
-           "--resolution", str(a.resolution), "--spp", str(a.spp), "--worker"]
+           "--resolution", str(a.resolution), "--spp", str(a.spp), "--member", a.member,
+           "--samples", str(a.samples), "--worker"]
     procs = [subprocess.Popen(cmd + [so], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, cwd=ROOT)
              for so in (a.old, a.new)]
     try:
@@ -120,7 +149,8 @@ def main(argv=None) -> int:
                 p.stdin.write("stop\n")
                 p.stdin.close()
             p.wait()
-    unit = {"pool": "CPU-s per pass", "segments": "ns per path segment", "rays": "ns per ray"}[a.case]
+    unit = {"pool": "CPU-s per pass", "segments": "ns per path segment", "rays": "ns per ray",
+            "wavebuild": "CPU-s per build", "waves": "CPU-us per sample"}[a.case]
     mo, mn = statistics.median(values[0]), statistics.median(values[1])
     per_round = statistics.median(n / o for o, n in zip(*values))
     print(f"{a.case}, {a.threads} thread(s), {a.rounds} rounds, {unit}: old {mo:.4g}, new {mn:.4g}, "

@@ -6,7 +6,9 @@ that must not change a single bit (compare the printed hashes before and after).
 Renders (2 threads, fixed seeds, a few seconds in all): the examples in ``examples/`` (stepped
 pool, canonical problem 2, coastal shelf) at 48 x 32, and a sunlit sea with gridded water, a
 grid over a depth profile and layered water, each with the hybrid and the path integrator and
-forward cones 0 and 3 deg, a camera and Ed/Eu/Eo radiometers. Prints one hash per render and
+forward cones 0 and 3 deg, a camera and Ed/Eu/Eo radiometers; and wave patches: three members
+of the radiometers-under-waves bench (photic.bench_waves) and a sea under waves with objects
+(a camera and Ed/Eu/Eo radiometers beside and below them, hybrid and path; a rough sea). Prints one hash per render and
 their combined hash (means, variances, radiometer means and standard errors).
 Compare builds made with the same compiler flags: floating-point contraction differs between
 flag sets (e.g. ``-march=native`` emits FMA), and so do the last bits.
@@ -64,6 +66,29 @@ def medium_scenes() -> dict[str, dict]:
     return out
 
 
+def wave_scenes() -> dict[str, Scene]:
+    from photic import bench_waves as B
+    import test_beams_objects as O  # noqa: E402
+
+    out = {}
+    for m in B.WAVE_FAMILY:
+        if m.name in ("issue", "small rough fine", "large rough fine"):
+            out[f"waves {m.name}"] = B.wave_member_scene(m, "waves", 256, radiometers_per_side=4)
+    rads = [[x, y, z] for x, y in ((0.5, 0.2), (6.0, 3.0), (13.0, -7.0)) for z in (-1.5, -4.5)]
+    for integrator in ("hybrid", "path"):
+        for rough in (False, True):
+            surface = O.waves(24)
+            if rough:
+                surface["roughness"] = {"wind_speed": 6.0}
+            d = O.sea(surface, ["cube", "sphere", "plate"], integrator=integrator, positions=rads).to_dict()
+            d["radiometers"] = [dict(r, quantity=q, name=f"{r['name']}_{q}") for r in d["radiometers"]
+                                for q in ("Ed", "Eu", "Eo")]
+            d["cameras"] = [CAMERA]
+            d["settings"]["radiometer_samples"] = 512
+            out[f"waves objects {integrator}" + (" rough" if rough else "")] = Scene.from_dict(d)
+    return out
+
+
 def main() -> None:
     total = hashlib.sha256()
     rows = []
@@ -86,6 +111,12 @@ def main() -> None:
             update(h, result)
             update(total, result)
             rows.append((f"{name} cone {cone:g}", h.hexdigest()[:12]))
+    for name, scene in wave_scenes().items():
+        result = render(scene, threads=2, samples=4)
+        h = hashlib.sha256()
+        update(h, result)
+        update(total, result)
+        rows.append((name, h.hexdigest()[:12]))
     for name, digest in rows:
         print(f"{name:50s} {digest}")
     print("all", total.hexdigest())

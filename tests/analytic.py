@@ -2,6 +2,7 @@
 import numpy as np
 
 from photic import _core
+from photic.colour import trapezoid
 
 
 def transmitted_uniform_sky(depth, a, n=1.34, sky_radiance=1.0, weight="Ed", mu_min=None, npts=200001):
@@ -18,7 +19,7 @@ def transmitted_uniform_sky(depth, a, n=1.34, sky_radiance=1.0, weight="Ed", mu_
         1 - np.vectorize(lambda m: _core.fresnel(m, n, 1.0))(mu)
     L = n**2 * T * sky_radiance * np.exp(-a * depth / mu)
     f = {"Ed": L * mu, "Eo": L, "L": L}[weight]
-    return 2 * np.pi * np.trapz(f, mu)
+    return 2 * np.pi * trapezoid(f, mu)
 
 
 def simpson(y, h):
@@ -38,7 +39,7 @@ def sun_disk_planar_irradiance(zenith_deg, e_sun=1.0, diameter_deg=0.53, n=2001)
     # cos(zenith) of a direction at angle R from the centre, azimuth P around it.
     cz = np.cos(th0) * np.cos(R) + np.sin(th0) * np.sin(R) * np.cos(P)
     f = np.maximum(cz, 0) * np.sin(R)
-    integral = np.trapz(np.trapz(f, ph, axis=1), r)
+    integral = trapezoid(trapezoid(f, ph, axis=1), r)
     return e_sun / (np.pi * np.sin(a) ** 2) * integral
 
 
@@ -87,7 +88,7 @@ class FloorCase:
 
     # --- pieces ---------------------------------------------------------------------------
     def _int(self, f):
-        return np.trapz(np.concatenate([[0.0], f]), np.concatenate([[0.0], self.mu]))
+        return trapezoid(np.concatenate([[0.0], f]), np.concatenate([[0.0], self.mu]))
 
     def rf(self, mu_w):
         """Reflectance of the surface seen from below at in-water cosine mu_w."""

@@ -180,3 +180,66 @@ def test_lookup_timing_probe_counts_the_same_beams():
     assert seconds > 0.0
     with pytest.raises(ValueError):
         core.time_beam_lookups(pts[:, :2], 0)
+
+
+@pytest.mark.parametrize("member", ["issue", "small rough fine", "large rough fine"])
+def test_passes_share_the_centres_grid_and_find_every_beam(member):
+    """Below a wave patch the beam grid is built once, for the sun's centre, and serves every
+    pass's direction in the disk (its marks widened by a margin): for directions across the
+    disk, its edge included, every pass shares it, and at random points beams_at finds the
+    beams that a brute force over all prisms and periods finds, with the same irradiances."""
+    from photic import bench_waves
+    from photic.render import sun_direction
+
+    m = next(m for m in bench_waves.WAVE_FAMILY if m.name == member)
+    scene = bench_waves.wave_member_scene(m, "waves", 64)
+    scene.validate()
+    core = compile_scene(scene, hybrid=True, forward_cone_deg=0.0)
+    rng = np.random.default_rng(7)
+    L = m.patch_m
+    pts = np.column_stack([rng.uniform(-L, 2 * L, 150), rng.uniform(-L, 2 * L, 150), rng.uniform(-5.0, 0.5, 150)])
+    for u in [(0.5, 0.5), (0.0, 0.0), (1.0, 0.5), (0.2, 0.9), (1.0, 1.0)]:
+        core.build_beams(tuple(sun_direction(scene, *u)), 2)
+        assert core.beam_grid_shared
+        count, e0 = core.beams_brute_force(pts, 0)
+        got = [core.beams_at(tuple(map(float, p)), 0) for p in pts]
+        assert [len(g) for g in got] == list(count)
+        np.testing.assert_allclose([sum(b[1][0] for b in g) for g in got], e0, rtol=1e-12, atol=0)
+    assert count.sum() > 100
+
+
+def test_lookups_find_every_beam_beside_the_pool_walls():
+    """Where one vertex ray of a prism ends on a wall before the others, the prism's slices
+    reach beyond that ray's end (up to the end face): the grid must list the prism there too
+    (pieces whose corners were clamped to the rays' ends lost such beams). In the stepped pool,
+    at points just before the ends of the prisms' rays (on walls, steps and the floor) and at
+    random points, in the water and in the air (reflected prisms), beams_at finds what a brute
+    force over all prisms finds, with the same irradiances."""
+    from photic.render import sun_direction
+    from photic.scenes import stepped_pool
+
+    scene = stepped_pool(resolution=(16, 16), integrator="hybrid")
+    scene.validate()
+    core = compile_scene(scene, hybrid=True, forward_cone_deg=0.0)
+    core.build_beams(tuple(sun_direction(scene, 0.5, 0.5)), 2)
+    rng = np.random.default_rng(3)
+    # the point where clamped corners lost a beam (a ray of its prism ends on the wall y = -1.5)
+    checked = 0
+    for air in (False, True):
+        v, d, length = (np.asarray(a) for a in core.prism_arrays(air)[:3])
+        ends = v + d * length[..., None]
+        pick = rng.integers(0, len(v), 300)
+        pts = ends[pick, rng.integers(0, 3, 300)] - d[pick, 0] * rng.uniform(0.0, 0.05, (300, 1)) \
+            + rng.normal(0.0, 0.02, (300, 3))
+        pts = np.vstack([pts, rng.uniform(ends.reshape(-1, 3).min(0), ends.reshape(-1, 3).max(0), (200, 3))])
+        if not air:
+            pts = np.vstack([pts, [[1.5740595681429581, -1.4999785421769563, -1.1413502807890408]]])
+        media = [-1] * len(pts) if air else [core.medium_at(tuple(map(float, p))) for p in pts]
+        for m in sorted(set(media) - ({-1} if not air else set())):
+            sel = pts[np.asarray(media) == m]
+            count, e0 = core.beams_brute_force(sel, int(m))
+            got = [core.beams_at(tuple(map(float, p)), int(m)) for p in sel]
+            assert [len(g) for g in got] == list(count)
+            np.testing.assert_allclose([sum(b[1][0] for b in g) for g in got], e0, rtol=1e-12, atol=0)
+            checked += int(count.sum())
+    assert checked > 200

@@ -5,6 +5,7 @@ import pytest
 from scipy import stats
 
 from photic import phase
+from analytic import trapezoid
 
 pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
 
@@ -83,7 +84,7 @@ def test_tables_follow_their_source(ptype, params):
     src = phase.phase_callable(ptype, params)
     psi = np.radians(np.logspace(-3, np.log10(179.9), 400))
     t = p.eval(phase.psi_to_x(psi))
-    norm = 2 * np.pi * np.trapz(src(phase.table_grid_psi()) * np.sin(phase.table_grid_psi()), phase.table_grid_psi())
+    norm = 2 * np.pi * trapezoid(src(phase.table_grid_psi()) * np.sin(phase.table_grid_psi()), phase.table_grid_psi())
     assert np.allclose(t, src(psi) / norm, rtol=1e-2)
 
 
@@ -106,7 +107,7 @@ def test_fournier_forand_parameters_from_backscatter():
     # Closed form integrates to one.
     psi = np.concatenate([np.radians(np.logspace(-6, 0, 20000)), np.linspace(np.radians(1.0001), np.pi, 20000)])
     n, mu = phase.ff_parameters(0.0183)
-    assert 2 * np.pi * np.trapz(phase.fournier_forand(psi, n, mu) * np.sin(psi), psi) == pytest.approx(1.0, abs=2e-3)
+    assert 2 * np.pi * trapezoid(phase.fournier_forand(psi, n, mu) * np.sin(psi), psi) == pytest.approx(1.0, abs=2e-3)
 
 
 def test_pure_water_iops_spot_values():

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from analytic import simpson, transmitted_uniform_sky
+from analytic import simpson, transmitted_uniform_sky, trapezoid
 from photic import _core
 from photic.profiles import align_components, gaussian_chlorophyll, profile_from_function
 from photic.render import render
@@ -392,8 +392,8 @@ def test_profile_from_a_gaussian_chlorophyll_maximum():
         zs = np.linspace(tops[i + 1], tops[i], 2001)
         b = np.array([iops_from_model(model(z), bands).scattering[0].b for z in zs])
         a = np.array([iops_from_model(model(z), bands).absorption for z in zs])
-        np.testing.assert_allclose(prof.layers[i].scattering[0].b, np.trapz(b, zs, axis=0) / 4.0, rtol=1e-5)
-        np.testing.assert_allclose(prof.layers[i].absorption, np.trapz(a, zs, axis=0) / 4.0, rtol=1e-5)
+        np.testing.assert_allclose(prof.layers[i].scattering[0].b, trapezoid(b, zs, axis=0) / 4.0, rtol=1e-5)
+        np.testing.assert_allclose(prof.layers[i].absorption, trapezoid(a, zs, axis=0) / 4.0, rtol=1e-5)
     last = iops_from_model(model(tops[-1]), bands)
     np.testing.assert_allclose(prof.layers[-1].absorption, last.absorption, rtol=1e-12)
     # explicit IOPs from the function, aligned; a scene takes the profile

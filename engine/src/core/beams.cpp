@@ -31,6 +31,7 @@ struct SourceTri {
     Vec3 nf;             // face normal (air side)
     int water;
     bool periodic;
+    int64_t vid[3] = {-1, -1, -1};  // the ocean patch's vertices at the corners (-1: a mesh's)
 };
 
 }  // namespace
@@ -64,102 +65,30 @@ void make_room(V& v, size_t n) {
 
 }  // namespace
 
-void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2) {
-    prisms.clear();
-    air_prisms.clear();
-    flat_beam = false;
-    flat_air_beam = false;
-    flat_d.clear();
-    flat_e0.clear();
-    grid_.clear();
-    air_grid_.clear();
-    if (!has_sun) return;
-    const Vec3 s = normalize(sun_direction);
-    beam_sun_dir = s;
-    {   // refracted sun below a level surface, for sampling along segments
-        double n = waters.empty() ? 1.34 : waters[ocean_water >= 0 ? ocean_water : 0].ior;
-        double sin_t = std::sqrt(std::max(0.0, 1.0 - s.z * s.z)) / n;
-        beam_mu_w = std::max(0.05, std::sqrt(std::max(0.0, 1.0 - sin_t * sin_t)));
-    }
-    const double alpha = std::acos(std::clamp(sun_cos_half, -1.0, 1.0));
-    // Irradiance normal to the sun per band (uniform disk): L pi sin^2(alpha).
-    Spectrum e_sun;
-    // Each direction of the disk carries L dw, so a beam built for one direction drawn
-    // uniformly in the disk carries L times the disk's solid angle (normal to itself).
-    for (int k = 0; k < nbands; ++k) e_sun.v[k] = sun_radiance.v[k] * 2.0 * kPi * (1.0 - std::cos(alpha));
-
-    // Refraction of the sun through the ocean surface with local normal n: the direction and
-    // the transmitted fraction of the flux arriving on the macro surface. A rough surface
-    // refracts through this build's facet (the same facet relative to every local normal),
-    // weighted so that the expectation over builds is the rough BTDF's transmission.
-    auto ocean_refraction = [&](const Vec3& n, double ior, Vec3* d, double* T,
-                                double u1, double u2) -> bool {
-        if (!(dot(n, s) > 0.0)) return false;
-        if (!ocean_rough) {
-            if (!refract(-s, n, 1.0, ior, d)) return false;
-            *T = 1.0 - fresnel_unpolarized(dot(n, s), 1.0, ior);
-            return true;
-        }
-        const Frame fr(n);
-        RoughSample rs = ocean_bsdf.sample(fr.to_local(s), u1, u2, 1.0, RoughInterface::kImportance);
-        if (!rs.valid || rs.reflection) return false;
-        *d = fr.to_world(rs.wo);
-        *T = (1.0 - rs.fresnel) * rs.weight;  // transmission was forced: its probability 1 - F
+// Refraction of the sun (towards s) through the ocean surface with local normal n: the
+// direction and the transmitted fraction of the flux arriving on the macro surface. A rough
+// surface refracts through the build's facet (the same facet relative to every local normal),
+// weighted so that the expectation over builds is the rough BTDF's transmission.
+bool Scene::refract_sun(const Vec3& s, const Vec3& n, double ior, Vec3* d, double* T, double u1, double u2) const {
+    if (!(dot(n, s) > 0.0)) return false;
+    if (!ocean_rough) {
+        if (!refract(-s, n, 1.0, ior, d)) return false;
+        *T = 1.0 - fresnel_unpolarized(dot(n, s), 1.0, ior);
         return true;
+    }
+    const Frame fr(n);
+    RoughSample rs = ocean_bsdf.sample(fr.to_local(s), u1, u2, 1.0, RoughInterface::kImportance);
+    if (!rs.valid || rs.reflection) return false;
+    *d = fr.to_world(rs.wo);
+    *T = (1.0 - rs.fresnel) * rs.weight;  // transmission was forced: its probability 1 - F
+    return true;
+}
+
+void Scene::make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int threads, double facet_u1,
+                        double facet_u2, HugeVector<BeamPrism>* dest, std::vector<std::array<Vec3, 3>>* normals) {
+    auto ocean_refraction = [&](const Vec3& n, double ior, Vec3* d, double* T, double u1, double u2) {
+        return refract_sun(s, n, ior, d, T, u1, u2);
     };
-
-    if (ocean_water >= 0 && ocean_flat && s.z > 0.0) {
-        // A rough flat sea: kRoughFlatBeams facets, stratified in the facet's slope radius and
-        // rotated by the golden angle, each carrying its share of the flux.
-        const Water& w = waters[ocean_water];
-        const int nf = ocean_rough ? kRoughFlatBeams : 1;
-        for (int i = 0; i < nf; ++i) {
-            double u1 = ocean_rough ? (i + facet_u1) / nf : facet_u1;
-            double u2 = std::fmod(facet_u2 + i * 0.6180339887498949, 1.0);
-            Vec3 d;
-            double T;
-            if (!ocean_refraction(Vec3(0, 0, 1), w.ior, &d, &T, u1, u2)) continue;
-            Spectrum e0;
-            for (int k = 0; k < nbands; ++k) e0.v[k] = e_sun.v[k] * s.z * T / (-d.z) / nf;
-            flat_d.push_back(d);
-            flat_e0.push_back(e0);
-        }
-        flat_beam = !flat_d.empty();
-        if (w.grid) {
-            // One shadow map per render, around the refracted centre of the sun: the passes'
-            // directions lie within the refracted disk, whose radius is at most the sun's
-            // (refraction into denser water narrows angles); a rough sea's facets spread the
-            // directions by a few degrees more (a facet outside the map's cone walks always).
-            Vec3 centre;
-            const double spread = 1.001 * alpha + 1e-9 + (ocean_rough ? kRoughShadeSpread : 0.0);
-            if (refract(-sun_dir, Vec3(0, 0, 1), 1.0, w.ior, &centre)) {
-                VoxelGrid::ShadowMap& m = flat_shade;
-                if (!(m.spread == spread && dot(m.up, -centre) >= 1.0 - 1e-12))  // (else built)
-                    w.grid->shadow_map(-centre, spread, &m, threads);
-                flat_shade_ok.assign(flat_d.size(), 0);
-                for (size_t i = 0; i < flat_d.size(); ++i)
-                    flat_shade_ok[i] = dot(m.up, -flat_d[i]) >= std::cos(m.spread);
-            } else {
-                flat_shade_ok.clear();
-            }
-        } else {
-            flat_shade_ok.clear();
-        }
-    }
-
-    // The sun reflected into the air by smooth water surfaces lights what stands in the air:
-    // built only where opaque objects or radiometers are there to be lit.
-    bool need_air = false;
-    for (const auto& m : meshes) need_air = need_air || m.kind == SurfaceKind::kOpaque;
-    for (const auto& r : radiometers) need_air = need_air || r.medium < 0;
-    if (need_air && ocean_water >= 0 && ocean_flat && !ocean_rough && s.z > 0.0) {
-        // A smooth flat sea: the mirror image of the sun, its irradiance normal to itself F E.
-        const double F = fresnel_unpolarized(s.z, 1.0, waters[ocean_water].ior);
-        flat_air_d = Vec3(-s.x, -s.y, s.z);
-        for (int k = 0; k < nbands; ++k) flat_air_e.v[k] = e_sun.v[k] * F;
-        flat_air_beam = F > 0.0;
-    }
-
     // Source triangles: the ocean patch (with its vertex normals) and the sun-facing faces of
     // closed water meshes (face normals).
     std::vector<SourceTri> src;
@@ -173,9 +102,14 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         for (size_t t = 0; t < nt; ++t) {
             const uint32_t* tri = &patch_triangles[3 * t];
             SourceTri st;
-            for (int j = 0; j < 3; ++j) { st.p[j] = V(tri[j]); st.n[j] = vn[tri[j]]; }
+            for (int j = 0; j < 3; ++j) { st.p[j] = V(tri[j]); st.n[j] = vn[tri[j]]; st.vid[j] = tri[j]; }
             st.nf = normalize(cross(st.p[1] - st.p[0], st.p[2] - st.p[0]));
-            if (st.nf.z < 0) { std::swap(st.p[1], st.p[2]); std::swap(st.n[1], st.n[2]); st.nf = -st.nf; }
+            if (st.nf.z < 0) {
+                std::swap(st.p[1], st.p[2]);
+                std::swap(st.n[1], st.n[2]);
+                std::swap(st.vid[1], st.vid[2]);
+                st.nf = -st.nf;
+            }
             st.water = ocean_water;
             st.periodic = true;
             if (dot(st.nf, s) > 0.0) src.push_back(st);
@@ -238,19 +172,22 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         const double off = offset_for(p);
         r.d = reflect(-s, n);
         if (dot(n, s) > 0.0 && dot(r.d, nf) > 0.0) {
-            r.lit = periodic ? !occluded_ocean(p + n * off, s) : !occluded(p + n * off, s);
+            r.lit = periodic ? !occluded_ocean(p + n * off, s, Side::kAbove) : !occluded(p + n * off, s);
         } else {
             r.d = reflect(-s, nf);
         }
         const Vec3 o = p + nf * off;
         const double cap = air_cap(o, r.d);
-        Hit h = periodic ? intersect_ocean(o, r.d, cap) : intersect(o, r.d, cap);
+        Hit h = periodic ? intersect_ocean(o, r.d, cap, Side::kAbove) : intersect(o, r.d, cap);
         r.len = h.valid ? h.t + off : cap;
         r.id = h.valid ? h.id : -1;
         r.hn = h.valid ? h.n : Vec3();
         return r;
     };
-    auto trace_vertex = [&](const Vec3& p, const Vec3& n, const Vec3& nf, int wi, bool rough, bool periodic) {
+    // (through: whether the sun refracts through the vertex's own normal; only then is the ray
+    // the same for every face around the vertex.)
+    auto trace_vertex = [&](const Vec3& p, const Vec3& n, const Vec3& nf, int wi, bool rough, bool periodic,
+                            bool* through_out = nullptr) {
         VertexRay r;
         r.p = p;
         r.n = n;
@@ -261,8 +198,9 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
         double cs = dot(n, s), T;
         bool through = rough ? ocean_refraction(n, w.ior, &r.d, &T, facet_u1, facet_u2)
                              : cs > 0.0 && refract(-s, n, 1.0, w.ior, &r.d);
+        if (through_out) *through_out = through;
         if (through) {
-            r.lit = periodic ? !occluded_ocean(p + n * off, s) : !occluded(p + n * off, s);
+            r.lit = periodic ? !occluded_ocean(p + n * off, s, Side::kAbove) : !occluded(p + n * off, s);
         } else if (!(rough ? ocean_refraction(nf, w.ior, &r.d, &T, facet_u1, facet_u2)
                            : refract(-s, nf, 1.0, w.ior, &r.d))) {
             // Unlit: the sun grazes the vertex's normal from behind. Its ray follows the sun
@@ -272,21 +210,48 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             // the light is.
             r.d = -n;
         }
-        Hit h = periodic ? intersect_ocean(p - n * off, r.d, cap) : intersect(p - n * off, r.d, cap);
+        Hit h = periodic ? intersect_ocean(p - n * off, r.d, cap, Side::kBelow) : intersect(p - n * off, r.d, cap);
         r.len = h.valid ? h.t + off : cap;
         r.id = h.valid ? h.id : -1;
         r.hn = h.valid ? h.n : Vec3();
         return r;
     };
 
+    // The ocean patch's vertex rays, traced once per vertex rather than once per face around it
+    // (six in the patch's grid), where they do not depend on the face: where the sun refracts
+    // through the vertex's own normal.
+    std::vector<VertexRay> vrays;
+    std::vector<uint8_t> vshared;
+    if (!air && ocean_water >= 0 && !ocean_flat) {
+        const size_t nv = patch_vertices.size() / 3;
+        vrays.resize(nv);
+        vshared.assign(nv, 0);
+        std::vector<uint8_t> used(nv, 0);  // (by a face that the sun lights)
+        for (const SourceTri& st : src)
+            for (int j = 0; j < 3; ++j)
+                if (st.vid[j] >= 0) used[size_t(st.vid[j])] = 1;
+        const size_t kBlock = 256;
+        parallel_for((nv + kBlock - 1) / kBlock, threads, [&](size_t b, int) {
+            for (size_t i = b * kBlock; i < std::min(nv, (b + 1) * kBlock); ++i) {
+                if (!used[i]) continue;
+                const Vec3 p(patch_vertices[3 * i], patch_vertices[3 * i + 1], patch_vertices[3 * i + 2]);
+                const Vec3 n = normalize(Vec3(patch_normals[3 * i], patch_normals[3 * i + 1], patch_normals[3 * i + 2]));
+                bool through = false;
+                // (the face normal only matters where the ray does not go through)
+                vrays[i] = trace_vertex(p, n, Vec3(0, 0, 1), ocean_water, ocean_rough, true, &through);
+                vshared[i] = through;
+            }
+        });
+    }
+
     // Per source triangle, adaptive subdivision into prisms (in parallel, merged in order):
     // the refracted sun's in the water, then (air) the reflected sun's in the air, from the
     // smooth surfaces (a rough sea's reflection is sampled by its BSDF instead).
-    auto make_prisms = [&](bool air, HugeVector<BeamPrism>* dest) {
     // Per source triangle, its prisms (lists kept from pass to pass: freed, their megabytes
     // came back as fresh pages to be zeroed by the kernel in every build).
     std::vector<std::vector<BeamPrism>>& out = prism_lists_;
     if (out.size() < src.size()) out.resize(src.size());
+    std::vector<std::vector<std::array<Vec3, 3>>> out_normals(normals ? src.size() : 0);
     parallel_for(src.size(), threads, [&](size_t ti, int) {
         out[ti].clear();
         const SourceTri& st = src[ti];
@@ -299,9 +264,15 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             Item it = stack.back();
             stack.pop_back();
             VertexRay r[3];
-            for (int j = 0; j < 3; ++j)
-                r[j] = air ? trace_vertex_air(it.p[j], it.n[j], st.nf, st.periodic)
-                           : trace_vertex(it.p[j], it.n[j], st.nf, st.water, rough, st.periodic);
+            for (int j = 0; j < 3; ++j) {
+                const int64_t vid = it.level == 0 ? st.vid[j] : -1;
+                if (air)
+                    r[j] = trace_vertex_air(it.p[j], it.n[j], st.nf, st.periodic);
+                else if (vid >= 0 && vshared[size_t(vid)])
+                    r[j] = vrays[size_t(vid)];
+                else
+                    r[j] = trace_vertex(it.p[j], it.n[j], st.nf, st.water, rough, st.periodic);
+            }
             int lit = int(r[0].lit) + int(r[1].lit) + int(r[2].lit);
             if (lit == 0) continue;
             // One prism is right only if its three rays end on one plane of one object; else
@@ -389,6 +360,7 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
                 if (lit < 3) P.check_sun = true;  // shaded in part, by whatever shades it
             }
             out[ti].push_back(P);
+            if (normals) out_normals[ti].push_back({it.n[0], it.n[1], it.n[2]});
         }
     });
     size_t total = dest->size();
@@ -396,11 +368,113 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
     make_room(*dest, total);
     for (size_t ti = 0; ti < src.size(); ++ti)
         for (const BeamPrism& p : out[ti]) dest->push_back(p);
+    if (normals)
+        for (const auto& list : out_normals) normals->insert(normals->end(), list.begin(), list.end());
+}
+
+void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2) {
+    prisms.clear();
+    air_prisms.clear();
+    flat_beam = false;
+    flat_air_beam = false;
+    flat_d.clear();
+    flat_e0.clear();
+    grid_.clear();
+    air_grid_.clear();
+    if (!has_sun) return;
+    const Vec3 s = normalize(sun_direction);
+    beam_sun_dir = s;
+    {   // refracted sun below a level surface, for sampling along segments
+        double n = waters.empty() ? 1.34 : waters[ocean_water >= 0 ? ocean_water : 0].ior;
+        double sin_t = std::sqrt(std::max(0.0, 1.0 - s.z * s.z)) / n;
+        beam_mu_w = std::max(0.05, std::sqrt(std::max(0.0, 1.0 - sin_t * sin_t)));
+    }
+    const double alpha = std::acos(std::clamp(sun_cos_half, -1.0, 1.0));
+    // Irradiance normal to the sun per band (uniform disk): L pi sin^2(alpha).
+    Spectrum e_sun;
+    // Each direction of the disk carries L dw, so a beam built for one direction drawn
+    // uniformly in the disk carries L times the disk's solid angle (normal to itself).
+    for (int k = 0; k < nbands; ++k) e_sun.v[k] = sun_radiance.v[k] * 2.0 * kPi * (1.0 - std::cos(alpha));
+
+    auto ocean_refraction = [&](const Vec3& n, double ior, Vec3* d, double* T, double u1, double u2) {
+        return refract_sun(s, n, ior, d, T, u1, u2);
     };
-    make_prisms(false, &prisms);
-    if (need_air) make_prisms(true, &air_prisms);
-    build_grid(prisms, &prism_keys_, &grid_);
-    build_grid(air_prisms, &air_keys_, &air_grid_);
+
+    if (ocean_water >= 0 && ocean_flat && s.z > 0.0) {
+        // A rough flat sea: kRoughFlatBeams facets, stratified in the facet's slope radius and
+        // rotated by the golden angle, each carrying its share of the flux.
+        const Water& w = waters[ocean_water];
+        const int nf = ocean_rough ? kRoughFlatBeams : 1;
+        for (int i = 0; i < nf; ++i) {
+            double u1 = ocean_rough ? (i + facet_u1) / nf : facet_u1;
+            double u2 = std::fmod(facet_u2 + i * 0.6180339887498949, 1.0);
+            Vec3 d;
+            double T;
+            if (!ocean_refraction(Vec3(0, 0, 1), w.ior, &d, &T, u1, u2)) continue;
+            Spectrum e0;
+            for (int k = 0; k < nbands; ++k) e0.v[k] = e_sun.v[k] * s.z * T / (-d.z) / nf;
+            flat_d.push_back(d);
+            flat_e0.push_back(e0);
+        }
+        flat_beam = !flat_d.empty();
+        if (w.grid) {
+            // One shadow map per render, around the refracted centre of the sun: the passes'
+            // directions lie within the refracted disk, whose radius is at most the sun's
+            // (refraction into denser water narrows angles); a rough sea's facets spread the
+            // directions by a few degrees more (a facet outside the map's cone walks always).
+            Vec3 centre;
+            const double spread = 1.001 * alpha + 1e-9 + (ocean_rough ? kRoughShadeSpread : 0.0);
+            if (refract(-sun_dir, Vec3(0, 0, 1), 1.0, w.ior, &centre)) {
+                VoxelGrid::ShadowMap& m = flat_shade;
+                if (!(m.spread == spread && dot(m.up, -centre) >= 1.0 - 1e-12))  // (else built)
+                    w.grid->shadow_map(-centre, spread, &m, threads);
+                flat_shade_ok.assign(flat_d.size(), 0);
+                for (size_t i = 0; i < flat_d.size(); ++i)
+                    flat_shade_ok[i] = dot(m.up, -flat_d[i]) >= std::cos(m.spread);
+            } else {
+                flat_shade_ok.clear();
+            }
+        } else {
+            flat_shade_ok.clear();
+        }
+    }
+
+    // The sun reflected into the air by smooth water surfaces lights what stands in the air:
+    // built only where opaque objects or radiometers are there to be lit.
+    bool need_air = false;
+    for (const auto& m : meshes) need_air = need_air || m.kind == SurfaceKind::kOpaque;
+    for (const auto& r : radiometers) need_air = need_air || r.medium < 0;
+    if (need_air && ocean_water >= 0 && ocean_flat && !ocean_rough && s.z > 0.0) {
+        // A smooth flat sea: the mirror image of the sun, its irradiance normal to itself F E.
+        const double F = fresnel_unpolarized(s.z, 1.0, waters[ocean_water].ior);
+        flat_air_d = Vec3(-s.x, -s.y, s.z);
+        for (int k = 0; k < nbands; ++k) flat_air_e.v[k] = e_sun.v[k] * F;
+        flat_air_beam = F > 0.0;
+    }
+
+    // The grid of the sun's centre, the first time (in the buffers of this build's prisms,
+    // which it leaves empty, so that their memory is not faulted in twice).
+    const GridReference& ref = grid_ref_;
+    const bool shared = grid_reference_allowed();
+    if (shared && !(ref.built && ref.sun.x == sun_dir.x && ref.sun.y == sun_dir.y && ref.sun.z == sun_dir.z &&
+                    ref.cos_half == sun_cos_half))
+        build_grid_reference(e_sun, threads);
+    make_prisms(s, e_sun, false, threads, facet_u1, facet_u2, &prisms);
+    if (need_air) make_prisms(s, e_sun, true, threads, facet_u1, facet_u2, &air_prisms);
+    // The water beams' grid: the reference's, when these prisms fit it, else their own.
+    make_keys(prisms, &prism_keys_);
+    water_grid_ = &grid_;
+    if (shared) {
+        double sx, sy;
+        if (ref.usable && reference_shear(s, &sx, &sy) && grid_reference_fits(sx, sy)) {
+            grid_ref_.grid.sx = sx;
+            grid_ref_.grid.sy = sy;
+            water_grid_ = &grid_ref_.grid;
+        }
+    }
+    if (water_grid_ == &grid_) build_grid(prisms, prism_keys_, &grid_);
+    make_keys(air_prisms, &air_keys_);
+    build_grid(air_prisms, air_keys_, &air_grid_);
 }
 
 namespace {
@@ -571,10 +645,8 @@ void Scene::set_prism_checks(BeamPrism* P, bool uniform, bool ends_on_surface) c
     P->check_sun = first_opaque_box(boxes, tol, Vec3(), Vec3(), 0.0) >= 0;
 }
 
-void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys_out, BeamGrid* grid_out) {
+void Scene::make_keys(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys_out) {
     HugeVector<PrismKey>& keys = *keys_out;
-    BeamGrid& grid = *grid_out;
-    grid.clear();
     make_room(keys, prisms.size());
     keys.resize(prisms.size());
     for (size_t pi = 0; pi < prisms.size(); ++pi) {
@@ -591,38 +663,57 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>
             K.ay[j] = P.v[j].y - K.by[j] * P.mv[j];
         }
     }
-    if (prisms.empty()) return;
+}
+
+void Scene::grid_shear(const HugeVector<PrismKey>& keys, double* sx, double* sy) {
     // The grid is sheared along the beams' typical drift (sx, sy) per metre of depth (the
     // median over the horizontally sliced prisms' rays): in coordinates u = x + sx z,
     // v = y + sy z, z a prism stands nearly upright, so cells can be tall (few marks per
     // prism) and narrow (few candidates per query) at once. (A key's b is the drift per unit
     // of h: h = -z going down, z going up.)
-    auto dxdz = [](const PrismKey& K, int j) { return K.up ? K.bx[j] : -K.bx[j]; };
-    auto dydz = [](const PrismKey& K, int j) { return K.up ? K.by[j] : -K.by[j]; };
     std::vector<double> bxs, bys;
     for (const PrismKey& K : keys)
         if (K.horizontal) {
-            bxs.push_back(-dxdz(K, 0));
-            bys.push_back(-dydz(K, 0));
+            bxs.push_back(K.up ? -K.bx[0] : K.bx[0]);
+            bys.push_back(K.up ? -K.by[0] : K.by[0]);
         }
     auto median = [](std::vector<double>& v) {
         std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
         return v[v.size() / 2];
     };
-    const double sx = bxs.empty() ? 0.0 : median(bxs), sy = bys.empty() ? 0.0 : median(bys);
+    *sx = bxs.empty() ? 0.0 : median(bxs);
+    *sy = bys.empty() ? 0.0 : median(bys);
+}
+
+void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, BeamGrid* grid_out,
+                       const double* margin_a, const double* margin_g) {
+    BeamGrid& grid = *grid_out;
+    grid.clear();
+    if (prisms.empty()) return;
+    double sx, sy;
+    grid_shear(keys, &sx, &sy);
+    auto dxdz = [](const PrismKey& K, int j) { return K.up ? K.bx[j] : -K.bx[j]; };
+    auto dydz = [](const PrismKey& K, int j) { return K.up ? K.by[j] : -K.by[j]; };
+    auto median = [](std::vector<double>& v) {
+        std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+        return v[v.size() / 2];
+    };
     grid.sx = sx;
     grid.sy = sy;
     // Each prism is cut into pieces along its slicing axis; the box (in the sheared frame) of
-    // each piece's six corner points marks its cells. The slices between ha and hb can bulge
-    // out of the box of their end slices only through the lateral faces, which are ruled
-    // surfaces between those points: their convex hull, and so the box, contains them (the
-    // shear, being linear, keeps that).
+    // each piece's six corner points marks its cells. The slice at h (what prism_eval takes:
+    // the triangle of the vertex rays at h, even before a ray's start or beyond its end, cut
+    // by the source's plane and by the end face) lies in the triangle of its corners, which
+    // move linearly with h, so the convex hull of the corners at ha and hb, and its box,
+    // contains every slice between (the shear, being linear, keeps that). The corners are not
+    // clamped to the rays' spans: where one ray ends before the others (on a wall), the slice
+    // reaches beyond its end (clamped corners lost beams there, beside the stepped pool's walls).
     auto piece = [&](const BeamPrism& P, double ha, double hb, Vec3* blo, Vec3* bhi) {
         *blo = Vec3(kInf, kInf, kInf);
         *bhi = Vec3(-kInf, -kInf, -kInf);
         for (int j = 0; j < 3; ++j)
             for (double h : {ha, hb}) {
-                double t = std::clamp((h - P.mv[j]) / P.md[j], 0.0, P.len[j]);
+                const double t = (h - P.mv[j]) / P.md[j];
                 Vec3 q = P.v[j] + P.d[j] * t;
                 q = Vec3(q.x + sx * q.z, q.y + sy * q.z, q.z);
                 *blo = Vec3(std::min(blo->x, q.x), std::min(blo->y, q.y), std::min(blo->z, q.z));
@@ -636,6 +727,10 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>
             *h0 = std::min(*h0, P.mv[j]);
             *h1 = std::max(*h1, P.mv[j] + P.md[j] * P.len[j]);
         }
+    };
+    // How far prism pi's boxes are widened across, for a piece at heights z in [za, zb].
+    auto margin = [&](size_t pi, double za, double zb) {
+        return margin_a ? margin_a[pi] + margin_g[pi] * std::max(std::fabs(za), std::fabs(zb)) : 0.0;
     };
     Vec3 lo(kInf, kInf, kInf), hi(-kInf, -kInf, -kInf);
     std::vector<double> widths, drifts;
@@ -657,6 +752,13 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>
     }
     const double width = median(widths);
     const double drift = drifts.empty() ? 1.0 : median(drifts);
+    if (margin_a) {  // widened by the largest margin of any layer (layers reach a cell beyond)
+        const double zmax = std::max(std::fabs(lo.z), std::fabs(hi.z)) + (hi.z - lo.z);
+        double m = 0.0;
+        for (size_t pi = 0; pi < prisms.size(); ++pi) m = std::max(m, margin(pi, zmax, zmax));
+        lo = lo - Vec3(m, m, 0.0);
+        hi = hi + Vec3(m, m, 0.0);
+    }
     Vec3 ext = hi - lo;
     // Cells: across, a typical prism's width; tall enough that a typical prism drifts by half
     // of that in one cell (narrower or shorter cells: no faster in the stepped pool). Not so
@@ -685,49 +787,200 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>
     grid.ny = int(std::floor(ext.y / cxy)) + 1;
     grid.nz = int(std::floor(ext.z / cz)) + 1;
     size_t ncell = size_t(grid.nx) * grid.ny * grid.nz;
-    // A cell lists its prisms in prism order, so that a point's beams are summed in prism
-    // order whatever the cells: the (cell, prism) marks are visited twice in prism order, to
-    // count each cell's and then to fill them (a counting sort without storing the marks).
-    // The arrays keep their memory from pass to pass: fresh ones cost a page fault and a
-    // zeroed page per 4 kB, a fifth of a build's time.
-    auto for_each_mark = [&](auto&& mark) {
-        make_room(grid.last, ncell);
-        grid.last.assign(ncell, ~uint32_t(0));
-        for (size_t pi = 0; pi < prisms.size(); ++pi) {
-            const BeamPrism& P = prisms[pi];
-            double h0, h1;
-            span(P, &h0, &h1);
-            // pieces about a cell tall (horizontal slicing) or wide (grazing beams)
-            const double step = keys[pi].horizontal ? cz : cxy;
-            int pieces = std::max(1, std::min(100000, int(std::ceil((h1 - h0) / step))));
-            for (int k = 0; k < pieces; ++k) {
-                double ha = h0 + (h1 - h0) * k / pieces, hb = h0 + (h1 - h0) * (k + 1) / pieces;
-                Vec3 blo, bhi;
-                piece(P, ha, hb, &blo, &bhi);
-                int x0 = std::clamp(int((blo.x - lo.x) / cxy), 0, grid.nx - 1), x1 = std::clamp(int((bhi.x - lo.x) / cxy), 0, grid.nx - 1);
-                int y0 = std::clamp(int((blo.y - lo.y) / cxy), 0, grid.ny - 1), y1 = std::clamp(int((bhi.y - lo.y) / cxy), 0, grid.ny - 1);
-                int z0 = std::clamp(int((blo.z - lo.z) / cz), 0, grid.nz - 1), z1 = std::clamp(int((bhi.z - lo.z) / cz), 0, grid.nz - 1);
-                for (int z = z0; z <= z1; ++z)
-                    for (int y = y0; y <= y1; ++y)
-                        for (int x = x0; x <= x1; ++x) {
-                            size_t c = (size_t(z) * grid.ny + y) * grid.nx + x;
-                            if (grid.last[c] == uint32_t(pi)) continue;
-                            grid.last[c] = uint32_t(pi);
-                            mark(c, uint32_t(pi));
-                        }
+    // The cells of a layer that the convex hull of points q (the sheared x, y of a piece's
+    // corners) meets, the hull widened by m: row by row (row(r, x0, x1)), the hull's extent
+    // across within the row (its edges clipped to the row), where the piece's box marked whole
+    // rectangles (a slice, a triangle, fills about half of its box).
+    auto hull_rows = [&](std::array<std::array<double, 2>, 6> q, double m, auto&& row) {
+        for (int i = 1; i < 6; ++i)  // (sorted by x, then y: insertion sort)
+            for (int j = i; j > 0 && q[j] < q[j - 1]; --j) std::swap(q[j], q[j - 1]);
+        std::array<std::array<double, 2>, 12> h;  // Andrew's monotone chain
+        auto turn = [](const std::array<double, 2>& o, const std::array<double, 2>& a,
+                       const std::array<double, 2>& b) {
+            return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
+        };
+        int nh = 0;
+        for (int i = 0; i < 6; ++i) {
+            while (nh >= 2 && turn(h[nh - 2], h[nh - 1], q[i]) <= 0.0) --nh;
+            h[nh++] = q[i];
+        }
+        for (int i = 4, lower = nh + 1; i >= 0; --i) {
+            while (nh >= lower && turn(h[nh - 2], h[nh - 1], q[i]) <= 0.0) --nh;
+            h[nh++] = q[i];
+        }
+        nh = std::max(1, nh - 1);  // (the last point is the first)
+        // Per edge: its heights' range across (y) and x as a linear function of y there.
+        double ey0[6], ey1[6], ex0[6], ex1[6], slope[6];
+        double ylo = kInf, yhi = -kInf;
+        for (int i = 0; i < nh; ++i) {
+            const auto& a = h[i];
+            const auto& b = h[(i + 1) % nh];
+            const bool up = a[1] <= b[1];
+            ey0[i] = up ? a[1] : b[1];
+            ey1[i] = up ? b[1] : a[1];
+            ex0[i] = up ? a[0] : b[0];
+            ex1[i] = up ? b[0] : a[0];
+            slope[i] = ey1[i] > ey0[i] ? (ex1[i] - ex0[i]) / (ey1[i] - ey0[i]) : 0.0;
+            ylo = std::min(ylo, ey0[i]);
+            yhi = std::max(yhi, ey1[i]);
+        }
+        const double eps = 1e-9 * (cxy + std::fabs(lo.x) + std::fabs(lo.y));
+        const double inv = 1.0 / cxy;  // (cells by multiplications: the hull is widened by eps)
+        const int r0 = std::clamp(int((ylo - m - eps - lo.y) * inv), 0, grid.ny - 1);
+        const int r1 = std::clamp(int((yhi + m + eps - lo.y) * inv), 0, grid.ny - 1);
+        for (int r = r0; r <= r1; ++r) {
+            const double b0 = lo.y + r * cxy - m - eps, b1 = lo.y + (r + 1) * cxy + m + eps;
+            double xmin = kInf, xmax = -kInf;
+            for (int i = 0; i < nh; ++i) {  // each edge's part within the row
+                const double y0 = std::max(b0, ey0[i]), y1 = std::min(b1, ey1[i]);
+                if (y0 > y1) continue;
+                const double xa = ey1[i] > ey0[i] ? ex0[i] + slope[i] * (y0 - ey0[i]) : ex0[i];
+                const double xb = ey1[i] > ey0[i] ? ex0[i] + slope[i] * (y1 - ey0[i]) : ex1[i];
+                xmin = std::min({xmin, xa, xb});
+                xmax = std::max({xmax, xa, xb});
             }
+            if (!(xmin <= xmax)) continue;
+            // (widened by the rounding of the edges' slopes: eps per cell of height)
+            const double w = m + eps * (1.0 + (b1 - b0) / cxy);
+            const int x0 = std::clamp(int((xmin - w - lo.x) * inv), 0, grid.nx - 1);
+            const int x1 = std::clamp(int((xmax + w - lo.x) * inv), 0, grid.nx - 1);
+            row(r, x0, x1);
         }
     };
+
+    // A point's layer of cells is floor((z - lo.z) / cz): the pieces of horizontally sliced
+    // prisms are the parts between those layers' planes (widened far beyond rounding), each
+    // marking cells of its own layer only. layer_piece: prism pi's piece in layer k, its six
+    // corners in the sheared frame and its margin (false: none).
+    const double pad = 1e-9 * (cz + std::fabs(lo.z) + std::fabs(hi.z));
+    auto layers_of = [&](size_t pi, int* k0, int* k1) {
+        double h0, h1;
+        span(prisms[pi], &h0, &h1);
+        const bool up = keys[pi].up;  // h = z going up, -z going down
+        const double zlo = up ? h0 : -h1, zhi = up ? h1 : -h0;
+        *k0 = std::clamp(int(std::floor((zlo - lo.z) / cz)), 0, grid.nz - 1);
+        *k1 = std::clamp(int(std::floor((zhi - lo.z) / cz)), 0, grid.nz - 1);
+    };
+    // (With margins, for the shared grid, the whole layer: another pass's prism may reach a
+    // little beyond this one's span.)
+    auto layer_piece = [&](size_t pi, int k, std::array<std::array<double, 2>, 6>* q, double* m) {
+        const BeamPrism& P = prisms[pi];
+        double h0, h1;
+        span(P, &h0, &h1);
+        if (margin_a) {
+            h0 = -kInf;
+            h1 = kInf;
+        }
+        const bool up = keys[pi].up;
+        const double za = lo.z + k * cz - pad, zb = lo.z + (k + 1) * cz + pad;
+        const double ha = std::max(h0, up ? za : -zb), hb = std::min(h1, up ? zb : -za);
+        if (!(ha <= hb)) return false;
+        // (the corners piece() takes, from the key: x = ax + bx h, y = ay + by h, z = -h going
+        // down; the hull is widened far beyond the rounding that differs)
+        const PrismKey& K = keys[pi];
+        const double sz = up ? 1.0 : -1.0;
+        for (int j = 0; j < 3; ++j)
+            for (int e = 0; e < 2; ++e) {
+                const double h = e ? hb : ha;
+                (*q)[2 * j + e] = {K.ax[j] + (K.bx[j] + sz * sx) * h, K.ay[j] + (K.by[j] + sz * sy) * h};
+            }
+        *m = margin(pi, za, zb);
+        return true;
+    };
+    // A cell lists its prisms in prism order, so that a point's beams are summed in prism
+    // order whatever the cells. The arrays keep their memory from pass to pass: fresh ones
+    // cost a page fault and a zeroed page per 4 kB, a fifth of a build's time.
     make_room(grid.start, ncell + 1);
-    make_room(grid.fill, ncell);
+    bool all_horizontal = true;
+    for (const PrismKey& K : keys) all_horizontal = all_horizontal && K.horizontal;
+    if (all_horizontal) {
+        // Layer by layer, each piece's marks made once and sorted by cell in the layer (a
+        // counting sort, stable: prism order), the layer's counts in the cache.
+        std::vector<int> k0(prisms.size()), k1(prisms.size());
+        for (size_t pi = 0; pi < prisms.size(); ++pi) layers_of(pi, &k0[pi], &k1[pi]);
+        grid.start.resize(ncell + 1);
+        const size_t nlayer = size_t(grid.nx) * grid.ny;
+        std::vector<uint32_t> count(nlayer + 1);
+        HugeVector<uint64_t>& marks = grid.marks;  // (cell in the layer << 32 | prism)
+        grid.items.clear();
+        for (int k = 0; k < grid.nz; ++k) {
+            marks.clear();
+            for (size_t pi = 0; pi < prisms.size(); ++pi) {
+                std::array<std::array<double, 2>, 6> q;
+                double m;
+                if (k < k0[pi] || k > k1[pi] || !layer_piece(pi, k, &q, &m)) continue;
+                hull_rows(q, m, [&](int r, int x0, int x1) {
+                    for (int x = x0; x <= x1; ++x) marks.push_back(uint64_t(size_t(r) * grid.nx + x) << 32 | pi);
+                });
+            }
+            std::fill(count.begin(), count.end(), 0u);
+            for (uint64_t mk : marks) count[(mk >> 32) + 1]++;
+            for (size_t c = 0; c < nlayer; ++c) count[c + 1] += count[c];
+            const size_t base = grid.items.size();
+            for (size_t c = 0; c < nlayer; ++c) grid.start[size_t(k) * nlayer + c] = uint32_t(base + count[c]);
+            make_room(grid.items, base + marks.size());
+            grid.items.resize(base + marks.size());
+            for (uint64_t mk : marks) grid.items[base + count[mk >> 32]++] = uint32_t(mk);
+        }
+        grid.start[ncell] = uint32_t(grid.items.size());
+    } else {
+        // The (cell, prism) marks visited twice in prism order, to count each cell's and then
+        // to fill them (a counting sort without storing the marks).
+        auto for_each_mark = [&](auto&& mark) {
+            make_room(grid.last, ncell);
+            grid.last.assign(ncell, ~uint32_t(0));
+            for (size_t pi = 0; pi < prisms.size(); ++pi) {
+                const BeamPrism& P = prisms[pi];
+                if (keys[pi].horizontal) {
+                    int k0, k1;
+                    layers_of(pi, &k0, &k1);
+                    for (int k = k0; k <= k1; ++k) {
+                        std::array<std::array<double, 2>, 6> q;
+                        double m;
+                        if (!layer_piece(pi, k, &q, &m)) continue;
+                        // (each cell once: a prism's layers and rows are visited once each)
+                        hull_rows(q, m, [&](int r, int x0, int x1) {
+                            for (int x = x0; x <= x1; ++x) mark((size_t(k) * grid.ny + r) * grid.nx + x, uint32_t(pi));
+                        });
+                    }
+                    continue;
+                }
+                // pieces about a cell wide (grazing beams), their boxes' cells
+                double h0, h1;
+                span(P, &h0, &h1);
+                const int pieces = std::max(1, std::min(100000, int(std::ceil((h1 - h0) / cxy))));
+                for (int k = 0; k < pieces; ++k) {
+                    double ha = h0 + (h1 - h0) * k / pieces, hb = h0 + (h1 - h0) * (k + 1) / pieces;
+                    Vec3 blo, bhi;
+                    piece(P, ha, hb, &blo, &bhi);
+                    const double m = margin(pi, blo.z, bhi.z);
+                    const int x0 = std::clamp(int((blo.x - m - lo.x) / cxy), 0, grid.nx - 1);
+                    const int x1 = std::clamp(int((bhi.x + m - lo.x) / cxy), 0, grid.nx - 1);
+                    const int y0 = std::clamp(int((blo.y - m - lo.y) / cxy), 0, grid.ny - 1);
+                    const int y1 = std::clamp(int((bhi.y + m - lo.y) / cxy), 0, grid.ny - 1);
+                    const int z0 = std::clamp(int((blo.z - lo.z) / cz), 0, grid.nz - 1);
+                    const int z1 = std::clamp(int((bhi.z - lo.z) / cz), 0, grid.nz - 1);
+                    for (int z = z0; z <= z1; ++z)
+                        for (int y = y0; y <= y1; ++y)
+                            for (int x = x0; x <= x1; ++x) {
+                                const size_t c = (size_t(z) * grid.ny + y) * grid.nx + x;
+                                if (grid.last[c] == uint32_t(pi)) continue;
+                                grid.last[c] = uint32_t(pi);
+                                mark(c, uint32_t(pi));
+                            }
+                }
+            }
+        };
+        make_room(grid.fill, ncell);
+        grid.start.assign(ncell + 1, 0);
+        for_each_mark([&](size_t c, uint32_t) { grid.start[c + 1]++; });
+        for (size_t c = 0; c < ncell; ++c) grid.start[c + 1] += grid.start[c];
+        make_room(grid.items, grid.start[ncell]);
+        grid.items.resize(grid.start[ncell]);
+        grid.fill.assign(grid.start.begin(), grid.start.end() - 1);
+        for_each_mark([&](size_t c, uint32_t pi) { grid.items[grid.fill[c]++] = pi; });
+    }
     make_room(grid.cells, ncell * BeamGrid::kCellWords);
-    grid.start.assign(ncell + 1, 0);
-    for_each_mark([&](size_t c, uint32_t) { grid.start[c + 1]++; });
-    for (size_t c = 0; c < ncell; ++c) grid.start[c + 1] += grid.start[c];
-    make_room(grid.items, grid.start[ncell]);
-    grid.items.resize(grid.start[ncell]);
-    grid.fill.assign(grid.start.begin(), grid.start.end() - 1);
-    for_each_mark([&](size_t c, uint32_t pi) { grid.items[grid.fill[c]++] = pi; });
     grid.cells.assign(ncell * BeamGrid::kCellWords, 0);
     for (size_t c = 0; c < ncell; ++c) {
         uint32_t* rec = &grid.cells[c * BeamGrid::kCellWords];
@@ -812,7 +1065,7 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
         } else if (P.periodic) {
             if (meshes_block(q, beam_sun_dir, 0.0, kInf)) return false;
             // Wave-shaded corners: the surface's own shadow (else the build's lit test says).
-            if (P.partial_lit && occluded_ocean(q, beam_sun_dir)) return false;
+            if (P.partial_lit && occluded_ocean(q, beam_sun_dir, Side::kAbove)) return false;
         } else if (occluded(q, beam_sun_dir)) {
             return false;
         }
@@ -834,7 +1087,7 @@ int Scene::beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool ex
     if (max <= 0) return 0;
     const int n = flat_beams_at(x, medium, out, max, exact);
     if (medium < 0) return lookup(air_prisms, air_keys_, air_grid_, x, -1, out, n, max, exact);
-    return lookup(prisms, prism_keys_, grid_, x, medium, out, n, max, exact);
+    return lookup(prisms, prism_keys_, *water_grid_, x, medium, out, n, max, exact);
 }
 
 int Scene::flat_beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool exact) const {
@@ -927,6 +1180,15 @@ inline bool may_cover(const Key& K, const Vec3& y, int medium, bool shifted) {
 
 }  // namespace
 
+double Scene::beam_patch_copies() const {
+    if (ocean_water < 0 || ocean_flat) return 1.0;
+    auto copies = [&](const BeamGrid& g) {
+        if (g.nx == 0) return 1.0;  // as find_candidates' range of periods (i0..i1, j0..j1)
+        return (std::floor(g.nx * g.cell.x / patch_lx) + 1.0) * (std::floor(g.ny * g.cell.y / patch_ly) + 1.0);
+    };
+    return std::max(water_grid_ ? copies(*water_grid_) : 1.0, copies(air_grid_));
+}
+
 int Scene::lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
                   const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const {
     thread_local std::vector<BeamCandidate> found;  // per thread: kept, so rarely grown
@@ -946,15 +1208,15 @@ void Scene::find_candidates(const HugeVector<BeamPrism>& prisms, const HugeVecto
     // (in the grid's sheared frame: a shift by whole periods is horizontal there too)
     const double xu = x.x + grid.sx * x.z, xv = x.y + grid.sy * x.z;
     if (periodic) {
-        i0 = long(std::ceil((xu - ghi.x) / patch_lx)); i1 = long(std::floor((xu - grid.lo.x) / patch_lx));
-        j0 = long(std::ceil((xv - ghi.y) / patch_ly)); j1 = long(std::floor((xv - grid.lo.y) / patch_ly));
+        i0 = ceil_to_long((xu - ghi.x) / patch_lx); i1 = floor_to_long((xu - grid.lo.x) / patch_lx);
+        j0 = ceil_to_long((xv - ghi.y) / patch_ly); j1 = floor_to_long((xv - grid.lo.y) / patch_ly);
     }
     for (long i = i0; i <= i1; ++i)
         for (long j = j0; j <= j1; ++j) {
             Vec3 y = x - Vec3(double(i) * patch_lx, double(j) * patch_ly, 0.0);
-            int cx = int(std::floor((xu - double(i) * patch_lx - grid.lo.x) / grid.cell.x));
-            int cy = int(std::floor((xv - double(j) * patch_ly - grid.lo.y) / grid.cell.y));
-            int cz = int(std::floor((y.z - grid.lo.z) / grid.cell.z));
+            const long cx = floor_to_long((xu - double(i) * patch_lx - grid.lo.x) / grid.cell.x);
+            const long cy = floor_to_long((xv - double(j) * patch_ly - grid.lo.y) / grid.cell.y);
+            const long cz = floor_to_long((y.z - grid.lo.z) / grid.cell.z);
             if (cx < 0 || cy < 0 || cz < 0 || cx >= grid.nx || cy >= grid.ny || cz >= grid.nz) continue;
             size_t c = (size_t(cz) * grid.ny + cy) * grid.nx + cx;
             // The keys all fetched at once and tested (independent loads into arrays of

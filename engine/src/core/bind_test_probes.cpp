@@ -65,6 +65,45 @@ void bind_test_probes(py::class_<Scene>& scene) {
             }
             return py::make_tuple(found, seconds);
         }, py::arg("points"), py::arg("medium"), py::arg("repeats") = 1)
+        .def("beams_brute_force", [](const Scene& s, py::array_t<double, py::array::c_style | py::array::forcecast> points,
+                                     int medium) {
+            // The beams at each point found without the grid: every prism (in the water
+            // `medium`, or reflected into the air for medium -1) evaluated at every image of the point that falls within a metre of the
+            // prism's box (every period below the ocean patch). (n,) counts and (n,) sums of
+            // band 0's irradiance, for comparing with beams_at.
+            if (points.ndim() != 2 || points.shape(1) != 3) throw std::invalid_argument("points: expected (n, 3)");
+            const double* p = points.data();
+            const py::ssize_t n = points.shape(0);
+            py::array_t<long> count(n);
+            DArray sum(n);
+            for (py::ssize_t i = 0; i < n; ++i) {
+                const Vec3 x(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+                long c = 0;
+                double e = 0.0;
+                for (const BeamPrism& P : medium < 0 ? s.air_prisms : s.prisms) {
+                    if (P.water != medium) continue;
+                    const double tol = 1.0;
+                    long i0 = 0, i1 = 0, j0 = 0, j1 = 0;
+                    if (P.periodic) {
+                        i0 = long(std::ceil((x.x - P.hi.x - tol) / s.patch_lx));
+                        i1 = long(std::floor((x.x - P.lo.x + tol) / s.patch_lx));
+                        j0 = long(std::ceil((x.y - P.hi.y - tol) / s.patch_ly));
+                        j1 = long(std::floor((x.y - P.lo.y + tol) / s.patch_ly));
+                    }
+                    for (long a = i0; a <= i1; ++a)
+                        for (long b = j0; b <= j1; ++b) {
+                            BeamSample bs;
+                            if (s.prism_eval(P, x - Vec3(a * s.patch_lx, b * s.patch_ly, 0.0), x, &bs)) {
+                                ++c;
+                                e += bs.e.v[0];
+                            }
+                        }
+                }
+                count.mutable_at(i) = c;
+                sum.mutable_at(i) = e;
+            }
+            return py::make_tuple(count, sum);
+        }, py::arg("points"), py::arg("medium"))
         .def("beam_flux_through_plane", [](const Scene& s, double z) {
             // Sum over prisms of (irradiance on the horizontal plane at the slice centroid) x
             // (area of the prism's horizontal cross-section at z), band 0. Prisms sliced

@@ -155,22 +155,23 @@ double* Scene::queue_beam_term(BeamTerms& b, Spectrum* volume, const Vec3& o, co
 }
 
 void Scene::settle_beam_terms(BeamTerms& b, Spectrum* volume) const {
-    // All the points' grid cells, then all their candidates' keys, fetched ahead; then all
-    // their candidates found (the prisms that pass fetched ahead); then each term's beams
-    // evaluated and added in order.
+    // All the points' grid cells fetched ahead; then all their candidates found (the prisms
+    // that pass fetched ahead); then each term's beams evaluated and added in order. (Fetching
+    // the candidates' keys ahead too, a stage of its own, cost more than it saved below wave
+    // patches, and nothing in the stepped pool.)
     auto vec = [](const double* v) { return Vec3(v[0], v[1], v[2]); };
     auto point = [&](const BeamTerms::Term& e) { return vec(e.o) + vec(e.d) * e.t; };
-    for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), 0);
-    for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), 1);
+    for (int i = 0; i < b.n; ++i) prefetch_beams(point(b.terms[i]), b.terms[i].medium);
     thread_local std::vector<BeamCandidate> found;  // per thread: kept, so rarely grown
     found.clear();
     size_t first[BeamTerms::kMax + 1];
     for (int i = 0; i < b.n; ++i) {
         first[i] = found.size();
-        find_candidates(prisms, prism_keys_, grid_, point(b.terms[i]), b.terms[i].medium, &found);
+        find_candidates(prisms, prism_keys_, *water_grid_, point(b.terms[i]), b.terms[i].medium, &found);
     }
     first[b.n] = found.size();
-    thread_local BeamSample beams[kMaxBeams];  // (as beam_scatter_along's)
+    thread_local BeamSample beams_tls[kMaxBeams];  // (as beam_scatter_along's)
+    BeamSample* const beams = beams_tls;  // (the thread-local address looked up once)
     for (int i = 0; i < b.n; ++i) {
         const BeamTerms::Term& e = b.terms[i];
         const Vec3 x = point(e);
@@ -214,12 +215,12 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
     for (;;) {
         Hit h;
         double t_hit;
-        // Whether this vertex sent the path into the beam's forward peak (its direction more
-        // likely under the beam-direction pdf than under the vertex's own): such a path carries
-        // the guide's small weight, and Russian roulette, which would return the survivors to
-        // a weight of about 1 at the odds of its small weight, would make exactly the rare,
-        // huge samples the guide removes; it is skipped there (a choice that depends only on
-        // the path so far, so the estimate stays unbiased).
+        // Whether this vertex's guided mixture sent the path into the beam's forward peak (its
+        // direction more likely under the beam-direction pdf than under the vertex's own): such
+        // a path carries the guide's small weight, and Russian roulette, which would return
+        // the survivors to a weight of about 1 at the odds of that small weight, would make
+        // exactly the rare, huge samples the guide removes; it is skipped there (a choice that
+        // depends only on the path so far, so the estimate stays unbiased).
         bool into_peak = false;
         if (medium >= 0) {
             const Water& w = waters[medium];
@@ -229,7 +230,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
             walk.begin(w, o, d);
             // A clipped ray's rest, from t on (what lies beyond the bound was unknown).
             auto intersect_rest = [&](double t) {
-                h = intersect(o + d * t, d);
+                h = intersect(o + d * t, d, kInf, ocean_side(medium));
                 c.segments++;
                 clipped = false;
                 if (h.valid) h.t += t;
@@ -240,7 +241,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
             const bool short_ray = !hybrid && walk.can_clip();
             t_hit = kInf;
             const double t_cast = walk.before_cast(rng, short_ray);
-            h = intersect(o, d, t_cast);
+            h = intersect(o, d, t_cast, ocean_side(medium));
             clipped = short_ray && !h.valid;  // nothing before t_cast; what lies beyond is unknown
             c.segments++;
             t_hit = h.valid ? h.t : kInf;
@@ -384,7 +385,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                     // taken with probability qb (balance heuristic with q samples expected).
                     double pb = beam_direction_pdf(w, bd, nd);
                     bv_weight = pmix / (pmix + qb * pb);
-                    into_peak = pb > pa;
+                    into_peak = guide && pb > pa;
                     Vec3 wb;
                     double pa_b = 0.0, pb_b = 0.0;
                     if (qb >= 1.0 || rng.uniform() < qb) {
@@ -394,7 +395,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                         pb_b = beam_direction_pdf(w, bd, wb);
                     }
                     if (pa_b > 0.0) {
-                        Hit hb = intersect(o, wb);
+                        Hit hb = intersect(o, wb, kInf, ocean_side(medium));
                         c.segments++;
                         double tb, pdf;
                         if (beam_scatter_point(w, wb, hb.valid ? hb.t : kInf, rng, &tb, &pdf)) {
@@ -417,7 +418,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
             walk.end_at(h.valid ? t_hit : kInf, t_cur, &out.beam_volume);
             if (!h.valid) return out;  // lost in infinitely deep water
         } else {
-            h = intersect(o, d);
+            h = intersect(o, d, kInf, Side::kAbove);  // (in the air)
             c.segments++;
             t_hit = h.valid ? h.t : kInf;
         }
@@ -447,7 +448,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 double cs = dot(n, ws);
                 if (cs > 0.0) {
                     c.shadow_rays++;
-                    if (!occluded(xo, ws)) {
+                    if (!occluded(xo, ws, Side::kAbove)) {
                         double f = cs * kInvPi / sun_pdf();
                         for (int k = 0; k < nb; ++k)
                             out.path.v[k] += beta.v[k] * m.reflectance.v[k] * sun_radiance.v[k] * f;
@@ -512,7 +513,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 if (guide) scale = pm > 0.0 ? pa / pm : 0.0;
                 guided_weight *= scale;
                 bv_weight = pm / (pm + q * pb);
-                into_peak = pb > pa;
+                into_peak = guide && pb > pa;
                 Vec3 wb;
                 double cb = 0.0;
                 if (q >= 1.0 || rng.uniform() < q) {
@@ -521,7 +522,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 }
                 if (cb > 0.0) {
                     double pa_b = cb * kInvPi, pb_b = beam_direction_pdf(w, bd, wb);
-                    Hit hb = intersect(xo, wb);
+                    Hit hb = intersect(xo, wb, kInf, ocean_side(medium));
                     c.segments++;
                     double tb, pdf;
                     if (beam_scatter_point(w, wb, hb.valid ? hb.t : kInf, rng, &tb, &pdf)) {
@@ -558,7 +559,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                     double f = ocean_bsdf.eval(wi, wsl, RoughInterface::kRadiance);
                     if (f > 0.0) {
                         c.shadow_rays++;
-                        if (!occluded(x + h.n * off, ws)) {
+                        if (!occluded(x + h.n * off, ws, Side::kAbove)) {
                             double g = f * wsl.z / sun_pdf();
                             for (int k = 0; k < nb; ++k) out.path.v[k] += beta.v[k] * sun_radiance.v[k] * g;
                         }
@@ -878,7 +879,7 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
         double resp = response(wb);
         if (resp > 0.0) {
             double pa_b = mixture(wb), pb_b = beam_direction_pdf(wat, bd, wb);
-            Hit hb = intersect(r.position, wb);
+            Hit hb = intersect(r.position, wb, kInf, ocean_side(r.medium));
             c.segments++;
             Spectrum I;
             beam_scatter_along(r.position, wb, hb.valid ? hb.t : kInf, r.medium, rng, &I);
@@ -898,7 +899,7 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
         double resp = response(ws);
         if (resp > 0.0) {
             c.shadow_rays++;
-            if (!occluded(r.position, ws))
+            if (!occluded(r.position, ws, Side::kAbove))
                 for (int k = 0; k < nbands; ++k) out[3].v[k] += resp * sun_radiance.v[k] / sun_pdf();
         }
     }

@@ -126,7 +126,10 @@ PYBIND11_MODULE(_core, m) {
         .def_property_readonly("ocean_rough", [](const Scene& s) { return s.ocean_rough; })
         .def_property_readonly("beam_count", [](const Scene& s) { return s.prisms.size(); })
         .def_property_readonly("has_flat_beam", [](const Scene& s) { return s.flat_beam; })
+        .def_property_readonly("beam_grid_shared", &Scene::beam_grid_shared,
+                               "Whether this pass's water beams use the grid built once for the sun's centre.")
         .def("beam_total_flux", &Scene::beam_total_flux)
+        .def("beam_patch_copies", &Scene::beam_patch_copies)
         .def_property_readonly("air_beam_count", [](const Scene& s) { return s.air_prisms.size(); })
         .def_property_readonly("has_air_beams", [](const Scene& s) { return s.has_air_beams(); })
         .def("air_beam_total_flux", &Scene::air_beam_total_flux)

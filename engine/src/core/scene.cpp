@@ -44,7 +44,28 @@ Scene::~Scene() {
     if (device_) rtcReleaseDevice(device_);
 }
 
+namespace {
+
+// The largest |grad z| over a periodic patch's facets, rounded up; inf unless the patch is a
+// height field over one period: every facet facing up, their shadows' areas adding up to the
+// period's (so that they cover it once).
+double height_field_slope(const std::vector<float>& v, const std::vector<uint32_t>& t, double lx, double ly) {
+    double slope = 0.0, area = 0.0;
+    auto V = [&](uint32_t i) { return Vec3(v[3 * i], v[3 * i + 1], v[3 * i + 2]); };
+    for (size_t k = 0; k + 2 < t.size(); k += 3) {
+        const Vec3 p0 = V(t[k]), n = cross(V(t[k + 1]) - p0, V(t[k + 2]) - p0);
+        if (!(n.z > 0.0)) return kInf;
+        slope = std::max(slope, std::sqrt(n.x * n.x + n.y * n.y) / n.z);
+        area += 0.5 * n.z;
+    }
+    if (!(std::fabs(area - lx * ly) <= 1e-6 * lx * ly)) return kInf;
+    return slope * (1.0 + 1e-9) + 1e-12;
+}
+
+}  // namespace
+
 void Scene::commit() {
+    grid_ref_.built = false;  // (its prisms came from the geometry before)
     if (nbands < 1 || nbands > kMaxBands) throw std::invalid_argument("nbands must be in 1..16");
     std::vector<const MeshRecord*> ptrs;
     Vec3 lo(kInf, kInf, kInf), hi(-kInf, -kInf, -kInf);
@@ -79,6 +100,7 @@ void Scene::commit() {
         if (patch_scene_) rtcReleaseScene(patch_scene_);
         patch_scene_ = build_embree_scene(device_, {&rec});
         if (patch_normals.size() != patch_vertices.size()) smooth_patch_normals();
+        patch_slope_max = height_field_slope(patch_vertices, patch_triangles, patch_lx, patch_ly);
         grow(patch_x0, patch_y0, patch_zmin);
         grow(patch_x0 + patch_lx, patch_y0 + patch_ly, patch_zmax);
     }
@@ -161,7 +183,13 @@ void Scene::smooth_patch_normals() {
         for (int c = 0; c < 3; ++c) patch_normals[3 * i + c] = float(vn[i][c]);
 }
 
-bool Scene::intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit) const {
+bool Scene::intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit, Side side) const {
+    // A ray that starts below the surface and goes down more steeply than any facet rises (or
+    // above it, going up) stays on its side: along its horizontal path the surface changes
+    // height by at most patch_slope_max per metre, less than the ray does.
+    if (side != Side::kUnknown && double(int(side)) * d.z > 0.0 &&
+        std::fabs(d.z) >= patch_slope_max * std::sqrt(d.x * d.x + d.y * d.y))
+        return false;
     double tol = 1e-6 * extent_;
     double t0, t1;
     if (std::fabs(d.z) < 1e-12) {
@@ -175,8 +203,8 @@ bool Scene::intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit)
     if (!(t0 < t1)) return false;
     // Walk the periodic tiles the ray crosses inside the slab of wave heights (2-D DDA).
     Vec3 p = o + d * t0;
-    long i = long(std::floor((p.x - patch_x0) / patch_lx));
-    long j = long(std::floor((p.y - patch_y0) / patch_ly));
+    long i = floor_to_long((p.x - patch_x0) / patch_lx);
+    long j = floor_to_long((p.y - patch_y0) / patch_ly);
     double t_cur = t0;
     const int kMaxTiles = 100000;  // beyond this a near-horizontal ray is treated as passing
     for (int step = 0; step < kMaxTiles; ++step) {
@@ -217,7 +245,7 @@ bool Scene::intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit)
     return false;
 }
 
-Hit Scene::intersect(const Vec3& o, const Vec3& d, double tmax) const {
+Hit Scene::intersect(const Vec3& o, const Vec3& d, double tmax, Side side) const {
     Hit hit;
     hit.t = tmax;
     RTCRayHit rh = make_rayhit(o, d, 0.0, tmax);
@@ -243,11 +271,11 @@ Hit Scene::intersect(const Vec3& o, const Vec3& d, double tmax) const {
             if (dot(ns, hit.n) > 0.0) hit.ns = ns;
         }
     }
-    Hit oh = intersect_ocean(o, d, hit.t);
+    Hit oh = intersect_ocean(o, d, hit.t, side);
     return oh.valid ? oh : hit;
 }
 
-Hit Scene::intersect_ocean(const Vec3& o, const Vec3& d, double tmax) const {
+Hit Scene::intersect_ocean(const Vec3& o, const Vec3& d, double tmax, Side side) const {
     Hit hit;
     hit.t = tmax;
     if (ocean_water < 0) return hit;
@@ -261,7 +289,7 @@ Hit Scene::intersect_ocean(const Vec3& o, const Vec3& d, double tmax) const {
         }
     } else {
         Hit ph;
-        if (intersect_patch(o, d, hit.t, &ph)) hit = ph;
+        if (intersect_patch(o, d, hit.t, &ph, side)) hit = ph;
     }
     if (has_bottom && d.z != 0.0) {
         double t = (bottom_z - o.z) / d.z;
@@ -273,19 +301,19 @@ Hit Scene::intersect_ocean(const Vec3& o, const Vec3& d, double tmax) const {
     return hit;
 }
 
-bool Scene::occluded(const Vec3& o, const Vec3& d) const {
+bool Scene::occluded(const Vec3& o, const Vec3& d, Side side) const {
     RTCRayHit rh = make_rayhit(o, d, 0.0, kInf);
     rtcOccluded1(scene_, &rh.ray);
     if (rh.ray.tfar < 0.0f) return true;
-    return occluded_ocean(o, d);
+    return occluded_ocean(o, d, side);
 }
 
-bool Scene::occluded_ocean(const Vec3& o, const Vec3& d) const {
+bool Scene::occluded_ocean(const Vec3& o, const Vec3& d, Side side) const {
     if (ocean_water < 0) return false;
     Hit h;
     if (ocean_flat) {
         if (d.z != 0.0 && (ocean_z - o.z) / d.z > 0.0) return true;
-    } else if (intersect_patch(o, d, kInf, &h)) {
+    } else if (intersect_patch(o, d, kInf, &h, side)) {
         return true;
     }
     return has_bottom && d.z != 0.0 && (bottom_z - o.z) / d.z > 0.0;

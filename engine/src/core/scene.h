@@ -192,6 +192,9 @@ public:
     // the mesh (smooth_patch_normals). Beams and paths both refract about them.
     std::vector<float> patch_normals;
     double patch_x0 = 0, patch_y0 = 0, patch_lx = 1, patch_ly = 1, patch_zmin = 0, patch_zmax = 0;
+    // The steepest facet's slope |grad z| (made at commit; inf unless the patch is a height
+    // field: every facet facing up, their shadows covering one period once).
+    double patch_slope_max = kInf;
     bool has_bottom = false;
     double bottom_z = 0.0;
     int bottom_material = -1;
@@ -255,17 +258,30 @@ public:
     // to rank the beams, as strongest_beam does.
     int beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool exact = true) const;
     double beam_total_flux() const;   // sum of prism fluxes entering the water (band 0)
+    // The most copies of the periodic ocean patch that one beam lookup visits (1 without one):
+    // the beams of every period that reach a point, whose count grows as (spread / period)^2
+    // where a small patch's beams spread over many periods on their way down.
+    double beam_patch_copies() const;
+    // Whether this pass's water beams are looked up in the grid built for the sun's centre.
+    bool beam_grid_shared() const { return water_grid_ == &grid_ref_.grid; }
     double air_beam_total_flux() const;   // sum of the reflected prisms' fluxes (band 0)
 
     void commit();                    // builds the BVHs and resolves sensor media
 
     // --- queries ----------------------------------------------------------------
-    Hit intersect(const Vec3& o, const Vec3& d, double tmax = kInf) const;  // closest hit before tmax
-    bool occluded(const Vec3& o, const Vec3& d) const;  // to infinity
+    // Which side of the ocean patch's surface a ray starts on, where the caller knows it (from
+    // the medium it is in): a ray that leaves the surface more steeply than any facet rises
+    // cannot meet it, and intersect_patch then skips the tiles.
+    enum class Side : int { kUnknown = 0, kAbove = 1, kBelow = -1 };
+    Side ocean_side(int medium) const {
+        return medium < 0 ? Side::kAbove : medium == ocean_water ? Side::kBelow : Side::kUnknown;
+    }
+    Hit intersect(const Vec3& o, const Vec3& d, double tmax = kInf, Side side = Side::kUnknown) const;  // closest hit before tmax
+    bool occluded(const Vec3& o, const Vec3& d, Side side = Side::kUnknown) const;  // to infinity
     // The same without the meshes: only the ocean's surface and bottom, which repeat with the
     // patch's period (the periodic beams are traced against these alone).
-    Hit intersect_ocean(const Vec3& o, const Vec3& d, double tmax = kInf) const;
-    bool occluded_ocean(const Vec3& o, const Vec3& d) const;
+    Hit intersect_ocean(const Vec3& o, const Vec3& d, double tmax = kInf, Side side = Side::kUnknown) const;
+    bool occluded_ocean(const Vec3& o, const Vec3& d, Side side = Side::kUnknown) const;
     // Whether a mesh (opaque or water boundary) lies on the segment o + t d, tnear < t < tfar;
     // false at once when the segment misses the meshes' bounding box.
     bool meshes_block(const Vec3& o, const Vec3& d, double tnear, double tfar) const;
@@ -358,7 +374,7 @@ public:
     std::atomic<bool> cancel_flag{false};
     double scene_extent() const { return extent_; }
 
-    bool intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit) const;
+    bool intersect_patch(const Vec3& o, const Vec3& d, double tmax, Hit* hit, Side side = Side::kUnknown) const;
     void smooth_patch_normals();  // patch_normals from the mesh (area weighted, seams shared)
     // Beam of prism P at y (primary-patch frame; `world` is the same point unshifted).
     bool prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, BeamSample* out,
@@ -396,26 +412,31 @@ private:
     Components trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
                           Counters& c, double first_beam_weight, bool camera, bool reflect_covered,
                           BeamTerms& terms) const;
-    // Starts fetching the water beams' grid cell at x (a hint: a later lookup there then finds
-    // it in the cache; the cell by multiplications, which may differ from lookup's at a cell's
-    // edge; for a periodic patch, x's own period only). stage 1: reads that cell and fetches
-    // its candidates' keys (after stage 0 for many points in turn, so that their misses
-    // overlap). Always inlined: GCC's link-time optimisation takes an out-of-line function
-    // that only reads memory and prefetches for one without effects, and drops its calls.
-    __attribute__((always_inline)) void prefetch_beams(const Vec3& x, int stage) const {
-        const BeamGrid& grid = grid_;
+    // Starts fetching the water beams' grid cells at x in `medium` (a hint: a later lookup
+    // there then finds them in the cache; the cells by multiplications, which may differ from
+    // lookup's at a cell's edge): below the periodic patch, the cells of x's images in every
+    // period the grid covers, as lookup visits them (paths soon leave the primary period).
+    // Always inlined: GCC's link-time optimisation takes an out-of-line function that only
+    // reads memory and prefetches for one without effects, and drops its calls.
+    __attribute__((always_inline)) void prefetch_beams(const Vec3& x, int medium) const {
+        const BeamGrid& grid = *water_grid_;
         if (grid.nx == 0) return;
-        const double fx = (x.x + grid.sx * x.z - grid.lo.x) * grid.inv_cell.x;
-        const double fy = (x.y + grid.sy * x.z - grid.lo.y) * grid.inv_cell.y;
+        double fx = (x.x + grid.sx * x.z - grid.lo.x) * grid.inv_cell.x;
+        double fy = (x.y + grid.sy * x.z - grid.lo.y) * grid.inv_cell.y;
         const double fz = (x.z - grid.lo.z) * grid.inv_cell.z;
-        if (!(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < grid.nx && fy < grid.ny && fz < grid.nz)) return;
-        const uint32_t* rec =
-            &grid.cells[((size_t(fz) * grid.ny + size_t(fy)) * grid.nx + size_t(fx)) * BeamGrid::kCellWords];
-        if (stage == 0) {
-            __builtin_prefetch(rec);
-            return;
+        if (!(fz >= 0.0 && fz < grid.nz)) return;
+        double px = kInf, py = kInf;  // the period in cells (inf: the point itself only)
+        if (medium == ocean_water && !ocean_flat) {
+            px = patch_lx * grid.inv_cell.x;
+            py = patch_ly * grid.inv_cell.y;
+            fx -= double(floor_to_long(fx / px)) * px;  // the image in [0, px), then those above it
+            fy -= double(floor_to_long(fy / py)) * py;
         }
-        prefetch_cell_keys(grid, rec, prism_keys_);
+        const size_t layer = size_t(fz) * grid.ny;
+        for (double gy = fy; gy >= 0.0 && gy < grid.ny; gy += py)
+            for (double gx = fx; gx >= 0.0 && gx < grid.nx; gx += px) {
+                __builtin_prefetch(&grid.cells[((layer + size_t(gy)) * grid.nx + size_t(gx)) * BeamGrid::kCellWords]);
+            }
     }
     struct BeamGrid {  // uniform grid over prism pieces (primary patch frame, sheared)
         double sx = 0.0, sy = 0.0;  // cell (i, j, k) holds u = x + sx z, v = y + sy z, z
@@ -427,6 +448,7 @@ private:
         static constexpr int kCellWords = 8, kInline = kCellWords - 2;
         HugeVector<uint32_t> cells, items;
         HugeVector<uint32_t> start, fill, last;  // the build's (kept: see build_grid)
+        HugeVector<uint64_t> marks;
         // Empty (no cells), keeping the arrays' memory for the next pass.
         void clear() {
             sx = sy = 0.0;
@@ -466,10 +488,63 @@ private:
         for (uint32_t q = BeamGrid::kInline; q < count; ++q) fetch(grid.items[first + q]);
     }
     HugeVector<PrismKey> prism_keys_;
+    // The water beams' grid of the sun's centre, kept from pass to pass (beam_reference.cpp).
+    // Every pass draws its own direction within the sun's disk, and its prisms lie within
+    // `margin` of the centre's (in the grid's sheared frame, after each pass's own shear):
+    // the centre's grid, its marks widened by the margin, then serves them all, one grid per
+    // render instead of one per pass. A pass whose prisms it does not fit (another structure,
+    // or farther than the margin) gets a grid of its own.
+    struct ReferencePrism {  // what a pass's prism is compared with
+        double v[9];                        // its source corners (the same in every pass)
+        double ax[3], bx[3], ay[3], by[3];  // its key: corner j at x = ax + bx h, y = ay + by h
+        double end[3];                      // where each ray ends, in h
+        // How far the prisms of other directions may lie from it, in the grid's sheared frame,
+        // at heights h: a + g |h| (the grid's margin there).
+        double margin_a, margin_g;
+        int water;
+        bool up, periodic;
+    };
+    struct GridReference {
+        bool built = false;   // for the sun `sun` of half-angle cosine `cos_half`
+        bool usable = false;  // (built: every prism sliced horizontally, the probes alike)
+        Vec3 sun;
+        double cos_half = 0.0;
+        double sx = 0.0, sy = 0.0;  // the centre's shear (the grid's is each pass's own)
+        std::vector<ReferencePrism> prisms;
+        BeamGrid grid;
+    } grid_ref_;
+    const BeamGrid* water_grid_ = &grid_;  // the water lookups' grid: grid_ or grid_ref_.grid
+    // Whether the scene's beams may share the reference: a smooth ocean patch and no water
+    // meshes (whose prisms' subdivision follows the sun more closely).
+    bool grid_reference_allowed() const;
+    // The reference for the current sun: the centre's prisms, their grid with the margin that
+    // two probes on the disk's edge need.
+    void build_grid_reference(const Spectrum& e_sun, int threads);
+    // The shared grid's shear for the sun towards s: the centre's, moved as the drift of the
+    // sun refracted by a level surface moves (smooth in the direction, as the prisms' drifts
+    // are, where each pass's own median is not).
+    bool reference_shear(const Vec3& s, double* sx, double* sy) const;
+    // Whether the current prisms (keys in prism_keys_, shear sx, sy) fit the reference.
+    bool grid_reference_fits(double sx, double sy) const;
     std::vector<std::vector<BeamPrism>> prism_lists_;  // build_beams' per-triangle lists (kept)
+    // The sun (towards s) refracted through the ocean surface with local normal n (a rough sea
+    // through the build's facet u1, u2): the direction d and the transmitted fraction T.
+    bool refract_sun(const Vec3& s, const Vec3& n, double ior, Vec3* d, double* T, double u1, double u2) const;
+    // build_beams' prisms for the sun towards s (e_sun: its irradiance normal to itself),
+    // appended to dest: refracted into the water, or (air) reflected into the air; normals
+    // (optional): each prism's corners' shading normals, appended alike.
+    void make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int threads, double facet_u1, double facet_u2,
+                     HugeVector<BeamPrism>* dest, std::vector<std::array<Vec3, 3>>* normals = nullptr);
     BeamGrid air_grid_;
     HugeVector<PrismKey> air_keys_;
-    static void build_grid(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys, BeamGrid* grid);
+    static void make_keys(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys);
+    // The grid's shear: the median drift per metre of depth of the horizontally sliced prisms.
+    static void grid_shear(const HugeVector<PrismKey>& keys, double* sx, double* sy);
+    // A grid over the prisms (their keys made); margins (optional, per prism): a piece of
+    // prism i at heights z is widened across by margin_a[i] + margin_g[i] max |z|, and covers
+    // its whole layer of cells.
+    static void build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, BeamGrid* grid,
+                           const double* margin_a = nullptr, const double* margin_g = nullptr);
     // The prisms of one set (keys and grid) covering x, appended to out from index n.
     int lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
                const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const;

@@ -25,6 +25,11 @@ inline Vec3 cross(const Vec3& a, const Vec3& b) {
 inline double length(const Vec3& a) { return std::sqrt(dot(a, a)); }
 inline Vec3 normalize(const Vec3& a) { double l = length(a); return l > 0 ? a * (1.0 / l) : a; }
 inline double max_abs(const Vec3& a) { return std::max({std::fabs(a.x), std::fabs(a.y), std::fabs(a.z)}); }
+// floor(v) and ceil(v) as integers, for |v| < 2^62: the same as long(std::floor(v)), without
+// the libm call (the core is built without SSE4.1's rounding instructions) in the beams'
+// lookups, which take several per point.
+inline long floor_to_long(double v) { const long i = long(v); return i - long(v < double(i)); }
+inline long ceil_to_long(double v) { const long i = long(v); return i + long(v > double(i)); }
 
 // Orthonormal basis around a unit vector (Duff et al. 2017, branchless and robust).
 struct Frame {

@@ -688,47 +688,22 @@ SPEED_CASES = ("problem2", "pool", "pool256", "waves", "cycles")
 DEFAULT_SIDE_BY_SIDE = Path("docs") / "images" / "bench_pool_photic_cycles.png"
 
 
-def wave_patch_radiometers(surface: str, samples: int = 2000) -> Scene:
-    """256 Ed radiometers 2 m deep on a 16 x 16 grid over one period of a 64 x 64 JONSWAP patch
-    (20 m, wind 6 m/s), or the same over a flat sea: a 0.1, b 0.2 Petzold, sand 5 m down, the
-    real 0.53 deg sun at 30 deg (the issue's radiometers-under-waves case)."""
-    g = (np.arange(16) + 0.5) * 20.0 / 16
-    waves = {"kind": "waves", "spectrum": "jonswap", "wind_speed": 6.0, "fetch_m": 50000.0,
-             "patch_size_m": [20.0, 20.0], "resolution": [64, 64], "seed": 0}
-    d = {"photic_scene": 1, "name": f"radiometers_{surface}",
-         "materials": {"sand": {"type": "lambertian", "reflectance": [0.3]}},
-         "water": [{"name": "sea", "type": "ocean",
-                    "surface": {"kind": "flat", "z": 0.0} if surface == "flat" else waves,
-                    "bottom": {"depth": 5.0, "material": "sand"},
-                    "iops": {"absorption": [0.1], "b": [0.2], "phase": {"type": "petzold"}}}],
-         "sun": {"zenith_deg": 30.0, "azimuth_deg": 290.0, "irradiance": [1.0], "angular_diameter_deg": 0.53},
-         "radiometers": [{"name": f"r{i}", "quantity": "Ed", "position": [float(x), float(y), -2.0]}
-                         for i, (x, y) in enumerate((x, y) for x in g for y in g)],
-         "settings": {"integrator": "hybrid", "radiometer_samples": samples}}
-    return Scene.from_dict(d)
+def run_wave_radiometers(threads: int = 2, repeats: int = 5, samples: int = 1000, samples_hi: int = 4000,
+                         progress=None) -> dict:
+    """The radiometers under the family of wave patches (photic.bench_waves), each against the
+    same over a flat sea: per member the CPU-time ratios waves / flat at ``samples`` per
+    radiometer ("total", beam builds included) and at the margin (from ``samples`` to
+    ``samples_hi``), medians of paired, interleaved runs. ``ratio_waves_over_flat`` and
+    ``ratio_waves_over_flat_margin`` are the largest over the family."""
+    from .bench_waves import WAVE_FAMILY, run_wave_family
 
-
-def run_wave_radiometers(threads: int = 2, repeats: int = 3, samples: int = 2000, progress=None) -> dict:
-    """The 256 radiometers under waves against the same over a flat sea, interleaved
-    ``repeats`` times (wall and CPU seconds; medians and the median of the paired ratios)."""
-    from .render import render
-
-    say = progress or (lambda msg: None)
-    runs = {"waves": [], "flat": []}
-    for rep in range(repeats):
-        for surface in ("waves", "flat"):
-            scene = wave_patch_radiometers(surface, samples)
-            c0, w0 = time.process_time(), time.perf_counter()
-            res = render(scene, seed=1 + rep, threads=threads)
-            wall, cpu = time.perf_counter() - w0, time.process_time() - c0
-            rel = np.median([r.stderr[0, 0] / r.mean[0, 0] for r in res.radiometers])
-            runs[surface].append({"wall_s": wall, "cpu_s": cpu, "median_rel_stderr": float(rel)})
-            say(f"radiometers under {surface}: {wall:.2f} s wall, {cpu:.2f} CPU-s")
-    med = {k: {q: float(statistics.median(r[q] for r in v)) for q in ("wall_s", "cpu_s", "median_rel_stderr")}
-           for k, v in runs.items()}
-    ratios = [w["wall_s"] / f["wall_s"] for w, f in zip(runs["waves"], runs["flat"])]
-    return {"samples": samples, "radiometers": 256, "threads": threads, "runs": runs, "median": med,
-            "ratio_waves_over_flat": float(statistics.median(ratios)), "ratios": ratios}
+    family = run_wave_family(WAVE_FAMILY, threads, repeats, samples, samples_hi, progress)
+    return {"samples": samples, "samples_hi": samples_hi, "radiometers": 64, "threads": threads,
+            "repeats": repeats, "family": family,
+            # (the first member's CPU seconds: the configuration of issue 46)
+            "median": {s: {"cpu_s": family[0]["cpu_s"][f"{s}_{samples}"]} for s in ("waves", "flat")},
+            "ratio_waves_over_flat": max(r["ratio_total"] for r in family),
+            "ratio_waves_over_flat_margin": max(r["ratio_margin"] for r in family)}
 
 
 def bpy_available() -> bool:
@@ -830,8 +805,10 @@ def speed_summary(records: list[dict], waves: dict | None, cycles: dict | None) 
         out["ratios"]["hybrid_over_path_cpu_s_per_spp"] = (out["cpu_s_per_spp"]["photic_hybrid"]
                                                            / out["cpu_s_per_spp"]["photic_path"])
     if waves is not None:
-        out["wave_radiometers"] = {"median": waves["median"], "samples": waves["samples"]}
+        out["wave_radiometers"] = {"median": waves["median"], "samples": waves["samples"],
+                                   "samples_hi": waves["samples_hi"], "family": waves["family"]}
         out["ratios"]["radiometers_waves_over_flat"] = waves["ratio_waves_over_flat"]
+        out["ratios"]["radiometers_waves_over_flat_margin"] = waves["ratio_waves_over_flat_margin"]
     return out
 
 
@@ -847,8 +824,8 @@ def format_speed_summary(summary: dict) -> str:
                      "its limits raised to Photic's max_depth, the same light transport)")
     w = summary.get("wave_radiometers")
     if w:
-        lines.append(f"  256 Ed radiometers, {w['samples']} samples each: waves {w['median']['waves']['wall_s']:.2f} s, "
-                     f"flat {w['median']['flat']['wall_s']:.2f} s (wall, medians)")
+        from .bench_waves import format_wave_family
+        lines += ["  " + line for line in format_wave_family(w["family"]).splitlines()]
     for k, v in summary["ratios"].items():
         lines.append(f"  {k}: {v:.3g}")
     return "\n".join(lines)
@@ -858,7 +835,7 @@ def run_speed_bench(cases=SPEED_CASES, quick: bool = False, threads: int = 2, pl
                     side_by_side=DEFAULT_SIDE_BY_SIDE, print_table: bool = True, progress=None) -> dict:
     """``photic bench --error``: error against time (run_error_bench) on the chosen ``cases``
     ("problem2", "pool": the pool at 32 x 24, "pool256": at 256 x 256), the radiometers under
-    waves against a flat sea ("waves"), and Cycles' CPU seconds per sample on the 256 x 256
+    a family of wave patches against a flat sea ("waves"), and Cycles' CPU seconds per sample on the 256 x 256
     pool view with the two images side by side ("cycles", when bpy is present). Returns
     {"records", "waves", "cycles", "summary"}."""
     say = progress or (lambda msg: None)
@@ -873,8 +850,8 @@ def run_speed_bench(cases=SPEED_CASES, quick: bool = False, threads: int = 2, pl
                               progress=progress, cases=chosen) if chosen else []
     waves = None
     if "waves" in cases:
-        waves = run_wave_radiometers(threads, repeats=1 if quick else 3, samples=256 if quick else 2000,
-                                     progress=progress)
+        waves = run_wave_radiometers(threads, repeats=1 if quick else 5, samples=256 if quick else 1000,
+                                     samples_hi=1024 if quick else 4000, progress=progress)
     cycles = None
     if "cycles" in cases and not quick:
         if bpy_available():

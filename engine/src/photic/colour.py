@@ -12,6 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
+# numpy 2 renamed trapz (removed in 2.4); numpy 1.x, which bpy 5.0 needs, has only trapz.
+trapezoid = getattr(np, "trapezoid", None) or np.trapz
+
 XYZ_TO_LINEAR_SRGB = np.array([[3.2406, -1.5372, -0.4986],
                                [-0.9689, 1.8758, 0.0415],
                                [0.0557, -0.2040, 1.0570]])
@@ -54,7 +57,7 @@ def band_matrix(bands) -> np.ndarray:
         e = np.zeros(len(pairs))
         e[k] = 1.0
         spectrum = np.interp(lam, centres[order], e[order]) * inside
-        xyz[k] = np.trapz(spectrum[:, None] * cmf(lam), lam, axis=0)
+        xyz[k] = trapezoid(spectrum[:, None] * cmf(lam), lam, axis=0)
     rgb = xyz @ XYZ_TO_LINEAR_SRGB.T
     white = rgb.sum(axis=0)
     if np.any(white <= 0):

@@ -344,6 +344,33 @@ def build_pass_beams(core, scene: Scene, seed: int, key: tuple, i: int, n: int, 
         core.build_beams(direction, threads, (f1, f2))
     else:
         core.build_beams(direction, threads)
+    check_beam_patch_copies(core, scene)
+
+
+# Beam lookups under a periodic wave patch visit every copy of the patch whose beams reach the
+# point; beyond this many copies (16 x 16) a lookup costs over ~60x the usual and a render's
+# chunks stop answering Ctrl-C promptly (a 1 mm patch: 500,000 copies, no progress in minutes).
+MAX_BEAM_PATCH_COPIES = 256
+
+
+def check_beam_patch_copies(core, scene: Scene) -> None:
+    """Refuse beams that spread over more copies of the ocean's patch than a lookup can visit
+    in bounded time, naming the patch's size and what to do instead."""
+    copies = float(core.beam_patch_copies())
+    if copies <= MAX_BEAM_PATCH_COPIES:
+        return
+    w = next(w for w in scene.water if w.type == "ocean" and w.surface.kind != "flat")
+    field = "surface.patch_size_m" if w.surface.kind == "waves" else "surface.period"
+    period = w.surface.waves.patch_size_m if w.surface.kind == "waves" else w.surface.period
+    side = max(float(p) for p in period)
+    larger = side * math.sqrt(copies / MAX_BEAM_PATCH_COPIES)
+    raise SceneError(f"water '{w.name}'", field,
+                     f"the sun's refracted beams under this {side:.3g} m patch spread over about "
+                     f"{copies:,.0f} copies of the patch on their way down, more than the "
+                     f"{MAX_BEAM_PATCH_COPIES} a beam lookup visits in bounded time: use a patch of "
+                     f"at least about {larger:.2g} m, or, for waves this much smaller than the "
+                     f"beams' spread, a flat surface with their slopes as its roughness "
+                     f"(surface.kind 'flat', surface.roughness.wind_speed)")
 
 
 def check_sensors_off_boundaries(core, scene: Scene) -> None:

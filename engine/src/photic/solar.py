@@ -23,6 +23,8 @@ from datetime import datetime, timezone
 
 import numpy as np
 
+from .colour import trapezoid
+
 TOTAL_SOLAR_IRRADIANCE = 1361.0  # W m^-2 at 1 AU (Kopp & Lean 2011)
 SUN_TEMPERATURE = 5778.0         # K, the black body standing in for the sun's spectrum
 H, C, KB = 6.62607015e-34, 2.99792458e8, 1.380649e-23
@@ -87,7 +89,7 @@ def extraterrestrial(wavelength_nm, day_of_year: int = 80) -> np.ndarray:
         return 2 * H * C ** 2 / l ** 5 / np.expm1(H * C / (l * KB * SUN_TEMPERATURE))
 
     grid = np.linspace(100e-9, 100e-6, 200001)
-    total = np.trapz(planck(grid), grid)
+    total = trapezoid(planck(grid), grid)
     distance = 1.0 + 0.033 * math.cos(2 * math.pi * day_of_year / 365.0)
     return TOTAL_SOLAR_IRRADIANCE * distance * planck(lam) / total * 1e-9
 
