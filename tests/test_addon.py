@@ -1194,7 +1194,7 @@ ADDON_PARAMETERS = [
     ("PhoticObjectProperties", "fetch", "surface.fetch_m", 1.0, "open end"),
     ("PhoticObjectProperties", "wave_depth", "surface.water_depth_m", 1.0, "0 is deep water"),
     ("PhoticWorldProperties", "radiance", "sky.radiance", 1.0, None),
-    ("PhoticObjectProperties", "half_angle", "radiometer.half_angle_deg", 180.0 / math.pi, "open end"),
+    ("PhoticObjectProperties", "half_angle", "radiometer.half_angle_deg", 180.0 / math.pi, None),
     ("PhoticObjectProperties", "polar_bins", "radiometer.polar_bins", 1.0, "a table"),
     ("PhoticObjectProperties", "azimuth_bins", "radiometer.azimuth_bins", 1.0, "a table"),
 ]

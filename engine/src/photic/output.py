@@ -116,14 +116,45 @@ def output_names(scene_name: str, cameras) -> dict[str, str]:
     return out
 
 
+NOT_COMPUTED = "not computed: the value or its standard error is not a finite number"
+
+
+def _computed(r, b: int, k: int) -> bool:
+    """Whether bin b, band k has a finite value and standard error (tables never hold NaN or
+    inf: a value that cannot be computed is written empty, with a note)."""
+    return bool(np.isfinite(r.mean[b, k]) and np.isfinite(r.stderr[b, k]))
+
+
 def _trusted(r, b: int, k: int) -> bool:
-    """Whether the standard error of bin b, band k can be trusted (photic.estimates)."""
-    return r.reliable is None or bool(r.reliable[b, k])
+    """Whether the standard error of bin b, band k can be trusted (photic.estimates); never
+    where the value is not computed."""
+    return _computed(r, b, k) and (r.reliable is None or bool(r.reliable[b, k]))
 
 
 def _note(r, b: int, k: int) -> str:
     """Why a standard error is not to be trusted ('' when it is)."""
+    if not _computed(r, b, k):
+        return NOT_COMPUTED
     return "" if _trusted(r, b, k) else "; ".join(r.notes)
+
+
+def _finite(x) -> float | None:
+    """A number for a table: None (empty, null) unless finite."""
+    x = float(x)
+    return x if np.isfinite(x) else None
+
+
+def _finite_list(a) -> list:
+    """A nested list of an array with None (null) where a value is not finite."""
+    a = np.asarray(a, dtype=np.float64)
+    if np.isfinite(a).all():
+        return a.tolist()
+    return np.where(np.isfinite(a), a, None).tolist()
+
+
+def _cell(x):
+    """A CSV cell: '' for a value that is missing (None)."""
+    return "" if x is None else x
 
 
 def radiometer_rows(result: RenderResult) -> list[dict]:
@@ -136,14 +167,14 @@ def radiometer_rows(result: RenderResult) -> list[dict]:
                 row = {"name": r.name, "quantity": r.quantity,
                        "x_m": r.position[0], "y_m": r.position[1], "z_m": r.position[2],
                        "medium": r.medium, "band": band.name, "center_nm": band.center_nm,
-                       "bin": b, "value": float(r.mean[b, k]), "stderr": float(r.stderr[b, k]),
+                       "bin": b, "value": _finite(r.mean[b, k]), "stderr": _finite(r.stderr[b, k]),
                        "stderr_trusted": _trusted(r, b, k), "stderr_note": _note(r, b, k),
                        "samples": r.samples, "units": r.units}
                 for c in COMPONENTS:
                     if c in r.components:
                         cm, ce = r.components[c]
-                        row[f"value_{c}"] = float(cm[b, k])
-                        row[f"stderr_{c}"] = float(ce[b, k])
+                        row[f"value_{c}"] = _finite(cm[b, k])
+                        row[f"stderr_{c}"] = _finite(ce[b, k])
                 if r.bins:
                     ip, ia = divmod(b, r.bins[1])
                     row["polar_deg"] = (ip + 0.5) * 180.0 / r.bins[0]
@@ -177,7 +208,7 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
         w = csv.DictWriter(f, fieldnames=fields)
         w.writeheader()
         for row in rows:
-            w.writerow({k: row.get(k, "") for k in fields})
+            w.writerow({k: _cell(row.get(k, "")) for k in fields})
     json_path = out_dir / f"{stem}_radiometers.json"
     doc = {"photic_version": __version__, "scene": result.scene_name,
            "bands": [{"name": b.name, "center_nm": b.center_nm, "width_nm": b.width_nm} for b in result.bands],
@@ -185,19 +216,48 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
            "radiometers": [{"name": r.name, "quantity": r.quantity, "position_m": r.position.tolist(),
                             "medium": r.medium, "units": r.units, "samples": r.samples,
                             "bins": list(r.bins) if r.bins else None,
-                            "value": r.mean.tolist(), "stderr": r.stderr.tolist(),
-                            "stderr_trusted": (r.reliable.tolist() if r.reliable is not None else None),
-                            "stderr_notes": list(r.notes),
+                            "value": _finite_list(r.mean), "stderr": _finite_list(r.stderr),
+                            "stderr_trusted": _trusted_list(r),
+                            "stderr_notes": list(r.notes) + ([NOT_COMPUTED + " (null)"] if not
+                                                             np.isfinite(r.mean).all() or not
+                                                             np.isfinite(r.stderr).all() else []),
                             **({} if r.target_error is None else
                                {"target_error": r.target_error, "relative_error": r.relative_error,
                                 "target_reached": r.target_reached}),
-                            "components": {c: {"value": r.components[c][0].tolist(),
-                                               "stderr": r.components[c][1].tolist()}
+                            "components": {c: {"value": _finite_list(r.components[c][0]),
+                                               "stderr": _finite_list(r.components[c][1])}
                                            for c in COMPONENTS if c in r.components}}
                            for r in result.radiometers],
            "components": {c: COMPONENT_DESCRIPTIONS[c] for c in COMPONENTS}}
-    json_path.write_text(json.dumps(doc, indent=1))
+    json_path.write_text(json.dumps(json_safe(doc), indent=1, allow_nan=False))
     return csv_path, json_path
+
+
+def json_safe(x):
+    """``x`` with every float that is not finite (NaN, inf) as None (null): JSON has no NaN,
+    and a reader that takes Python's 'NaN' would take it for a number."""
+    if isinstance(x, dict):
+        return {k: json_safe(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [json_safe(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return json_safe(x.tolist())
+    if isinstance(x, (float, np.floating)):
+        return float(x) if np.isfinite(x) else None
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, np.bool_):
+        return bool(x)
+    return x
+
+
+def _trusted_list(r):
+    """stderr_trusted of the JSON table: None without reliability flags unless a value is not
+    computed, False wherever it is not."""
+    computed = np.isfinite(r.mean) & np.isfinite(r.stderr)
+    if r.reliable is None:
+        return None if computed.all() else computed.tolist()
+    return (np.asarray(r.reliable, bool) & computed).tolist()
 
 
 def write_outputs(out_dir, result: RenderResult) -> dict[str, list[Path]]:
