@@ -302,14 +302,13 @@ def write_radiometer_results(photic, final, bscene, report) -> list[str]:
     if not bscene.photic.write_tables:
         return []
     out_dir, stem = table_stem(bscene)
-    try:
-        paths = photic.output.write_radiometer_tables(out_dir, final, f"{stem}")
-    except OSError as exc:
-        report("WARNING", f"radiometer tables not written to {out_dir}: {exc}")
-        return []
-    derived = photic.output.write_derived_table(Path(out_dir) / f"{stem}_derived.csv", final)
-    print(f"Photic: radiometer tables {paths[0]} and {paths[1]}")
-    return [str(p) for p in paths] + ([str(derived)] if derived else [])
+    written = photic.output.write_outputs(out_dir, final, stem=f"{stem}", images=False)
+    for failure in written["failed"]:  # each table on its own, kept elsewhere when it fails
+        report("WARNING", f"radiometer table {failure}")
+    paths = written["tables"]
+    if paths:
+        print("Photic: radiometer tables " + ", ".join(str(p) for p in paths))
+    return [str(p) for p in paths] + [str(f.kept) for f in written["failed"] if f.kept]
 
 
 class FinalRender:

@@ -110,7 +110,7 @@ def target_summary(result) -> str | None:
 
 
 def cmd_render(args) -> int:
-    from .output import check_output_dir, write_outputs
+    from .output import check_output_dir, check_output_files, write_outputs
     from .render import Renderer
     from .scene import SceneError, load_scene
 
@@ -136,6 +136,11 @@ def cmd_render(args) -> int:
         return 2
     except (OSError, ValueError) as e:
         print(f"photic: cannot load {args.scene}: {e}", file=sys.stderr)
+        return 2
+    try:
+        check_output_files(args.out, scene)
+    except OSError as e:
+        print(f"photic: {e}", file=sys.stderr)
         return 2
     if args.beam_mesh is not None and scene.sun is None:
         print(f"photic: --beam-mesh: scene {scene.name} has no sun, so no beams", file=sys.stderr)
@@ -192,7 +197,9 @@ def cmd_render(args) -> int:
         print(f"image: {p}")
     for p in written["tables"]:
         print(f"radiometer table: {p}")
-    status = 130 if result.cancelled else 0
+    for f in written["failed"]:
+        print(f"photic: {f}", file=sys.stderr)
+    status = 130 if result.cancelled else (1 if written["failed"] else 0)
     if args.beam_mesh is not None and not result.cancelled:
         status = _write_beam_mesh(scene, args.beam_mesh, renderer.threads) or status
     return status

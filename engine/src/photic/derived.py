@@ -497,9 +497,10 @@ def derived_rows(derived: list[Derived], bands) -> list[dict]:
 
 def write_derived_csv(path, derived: list[Derived], bands, header: str = "") -> Path:
     """The rows of ``derived_rows`` as CSV, after a '#' comment line."""
+    from .output import atomic_file
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as f:
+    with atomic_file(path, "w", newline="", encoding="utf-8") as f:
         f.write("# photic derived quantities" + (f"; {header}" if header else "") +
                 "; value +- stderr (first-order propagation, radiometers independent); depth = -z (m); "
                 "K = -d ln E / d depth\n")

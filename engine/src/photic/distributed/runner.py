@@ -253,9 +253,10 @@ class _ItemState:
 
 
 def _write_json(path: Path, doc: dict) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(doc, indent=1, default=str))
-    os.replace(tmp, path)
+    from ..output import atomic_file, json_safe
+    text = json.dumps(json_safe(doc), indent=1, default=str, allow_nan=False)
+    with atomic_file(path, "w", encoding="utf-8") as f:
+        f.write(text)
 
 
 def run_job(job: Job, out=None, *, scheduler: str | None = None, workers: int | None = None,
@@ -386,6 +387,8 @@ def run_job(job: Job, out=None, *, scheduler: str | None = None, workers: int | 
             if write_results:
                 written = write_outputs(out / "results" / st.item.name, result)
                 st.files = [str(p) for p in written["images"] + written["tables"]]
+                if written["failed"]:  # the units stay in the store: a resume writes them
+                    raise OSError("; ".join(str(f) for f in written["failed"]))
             st.status = "done"
             executor.release(st.item)
             _write_json(out / "summary.json", summary())

@@ -13,7 +13,7 @@ from .checks import (
     CAMERA_TYPES, FILTER_TYPES, INTEGRATORS, MAX_ARRAY_RADIOMETERS, MAX_COMPONENTS,
     MAX_COORDINATE_M, MAX_DISTRIBUTION_BINS, PHASE_FUNCTION_PARAMS,
     QUANTITIES, SKY_TYPES, SURFACE_KINDS, SceneError, WATER_TYPES, _COORD_TEXT,
-    _DEGENERATE_AREA_FRACTION, _check_choice, _check_name,
+    _DEGENERATE_AREA_FRACTION, _check_choice, _check_encodable, _check_name,
     _check_real, _check_vec3, _entries, _label, _num, _show,
 )
 from .model import (
@@ -30,6 +30,7 @@ from .model import (
 def _validate_scene(s: Scene) -> None:
     if not isinstance(s.name, str):
         raise SceneError("scene", "name", f"must be a string, got {_show(s.name)}")
+    _check_encodable("scene", "name", s.name)
     if not isinstance(s.bands, list) or not s.bands:
         raise SceneError("scene", "bands", "at least one band is required")
     seen: dict[str, str] = {}
