@@ -61,6 +61,15 @@ def apply_auto_exposure(scene) -> float | None:
 #: (a background Blender shows neither): ``photic blend`` draws its progress bar with it.
 PROGRESS_HOOK = None
 
+#: Set (by ``photic blend``'s Ctrl-C handler) to stop the render as Esc does: the worker is
+#: cancelled and joined, and what is finished is kept.
+CANCEL = threading.Event()
+
+
+def stop_requested(engine) -> bool:
+    """Esc in Blender (``engine.test_break()``) or a Ctrl-C of ``photic blend`` (CANCEL)."""
+    return CANCEL.is_set() or bool(engine.test_break())
+
 
 def set_rect(render_pass, image: np.ndarray) -> None:
     """Write an (H, W, C) top-row-first image into a render pass (bottom row first).
@@ -343,6 +352,8 @@ class FinalRender:
         t0 = time.perf_counter()
         try:
             self._run(t0)
+        except KeyboardInterrupt:  # outside the polling loop (the export): a cancel
+            self.summary["cancelled"] = True
         except Exception as exc:  # never a crash of Blender: report and keep running
             traceback.print_exc()
             self.fail(f"internal error: {type(exc).__name__}: {exc} (details in the console)")
@@ -367,7 +378,7 @@ class FinalRender:
 
         try:
             scene, info = export_scene(self.depsgraph, photic, progress=export_progress,
-                                       test_break=engine.test_break)
+                                       test_break=lambda: stop_requested(engine))
         except ExportCancelled:
             self.summary["cancelled"] = True
             return
@@ -568,9 +579,13 @@ class FinalRender:
         try:
             thread.start()
             while thread.is_alive():
-                thread.join(POLL_S)
+                interrupted = False
+                try:
+                    thread.join(POLL_S)
+                except KeyboardInterrupt:  # Ctrl-C where Python raises it: a cancel, as Esc
+                    interrupted = True
                 now = time.perf_counter()
-                if cancel_at is None and engine.test_break():
+                if cancel_at is None and (interrupted or stop_requested(engine)):
                     cancel_at = now
                     cancel()
                     self.stats("cancelling")
@@ -579,7 +594,13 @@ class FinalRender:
         finally:
             if thread.is_alive():  # an exception in the loop: stop the worker first
                 cancel()
-            thread.join()
+            # Joined whatever happens: a worker left running when the interpreter unwinds
+            # aborts the process (SIGABRT, 'terminate called without an active exception').
+            while thread.is_alive():
+                try:
+                    thread.join()
+                except KeyboardInterrupt:
+                    cancel()
             if cancel_at is not None:
                 self.summary["cancelled"] = True
                 self.summary["cancel_latency_s"] = time.perf_counter() - cancel_at

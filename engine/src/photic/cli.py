@@ -3,8 +3,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import signal
 import sys
+import threading
 from pathlib import Path
 
 
@@ -523,10 +525,28 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+#: A Ctrl-C while ``photic blend`` loads (bpy takes seconds, and a KeyboardInterrupt inside
+#: its import crashed the process): photic_blender.cli reads it once its own handler is in.
+EARLY_INTERRUPT = {"requested": False}
+
+
+def _early_sigint(signum, frame) -> None:
+    if EARLY_INTERRUPT["requested"]:
+        os._exit(130)
+    EARLY_INTERRUPT["requested"] = True
+
+
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else [str(a) for a in argv]
     if argv[:1] == ["blend"]:  # everything after it is photic-blend's (--help included)
-        return cmd_blend(argparse.Namespace(args=argv[1:]))
+        if threading.current_thread() is not threading.main_thread():
+            return cmd_blend(argparse.Namespace(args=argv[1:]))
+        EARLY_INTERRUPT["requested"] = False
+        previous = signal.signal(signal.SIGINT, _early_sigint)
+        try:
+            return cmd_blend(argparse.Namespace(args=argv[1:]))
+        finally:
+            signal.signal(signal.SIGINT, previous)
     args = build_parser().parse_args(argv)
     return args.func(args)
 

@@ -231,9 +231,21 @@ def wait_for_workers(client, address: str, timeout_s: float, say=None) -> None:
 
 
 def _local_cluster(workers: int):
+    """A local cluster whose worker processes ignore SIGINT: a Ctrl-C in the terminal reaches
+    the whole process group, and each worker printed a KeyboardInterrupt traceback while this
+    process (which alone handles it) cancels the units and closes the cluster."""
+    import signal
+    import threading
+
     from distributed import Client, LocalCluster
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=logging.ERROR)
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    try:  # (an ignored signal stays ignored in the processes started meanwhile)
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=logging.ERROR)
+    finally:
+        if main:
+            signal.signal(signal.SIGINT, previous)
     return Client(cluster), cluster
 
 
