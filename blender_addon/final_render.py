@@ -188,6 +188,27 @@ class DisplayStream:
             self._thread.join()
 
 
+def is_this_machine(host: str) -> bool:
+    """Whether a scheduler host is this machine: a loopback IP address (127.0.0.0/8, ::1,
+    parsed, not matched as text: 127.attacker.example is a name, resolved elsewhere), or the
+    name 'localhost' when every address it resolves to is a loopback one. Any other name
+    counts as another machine (what it resolves to may change)."""
+    import ipaddress
+    import socket
+    host = host.strip().strip("[]")
+    try:
+        return ipaddress.ip_address(host.split("%", 1)[0]).is_loopback
+    except ValueError:
+        pass
+    if host.lower().rstrip(".") != "localhost":
+        return False
+    try:
+        infos = socket.getaddrinfo("localhost", None)
+    except OSError:
+        return False
+    return bool(infos) and all(ipaddress.ip_address(i[4][0].split("%", 1)[0]).is_loopback for i in infos)
+
+
 def remote_scheduler_refusal(address: str, allowed: bool) -> str | None:
     """Why a render must not go to the Dask scheduler at ``address``, or None: an address
     that is not one, or a plain tcp:// scheduler on another machine without the user's
@@ -198,7 +219,7 @@ def remote_scheduler_refusal(address: str, allowed: bool) -> str | None:
         scheme, host, _ = check_scheduler_address(address)
     except SchedulerError as exc:
         return f"Render > Photic > Dask Scheduler: {exc}"
-    local = host in ("localhost", "::1") or host.startswith("127.")
+    local = is_this_machine(host)
     if scheme == "tcp" and not local and not allowed:
         return (f"Render > Photic > Dask Scheduler: {address} is another machine over plain tcp:// "
                 f"(unencrypted, unauthenticated: whoever reaches that scheduler runs code on its "
@@ -501,7 +522,14 @@ class FinalRender:
         preview = CameraPreview(item, job) if camera is not None else None
         # Units are kept per scene fingerprint: rendering an unchanged frame again (or after
         # an interruption) reuses the units already computed.
-        cache = Path(tempfile.gettempdir()) / "photic_dask" / item.fingerprint[:16]
+        # (in this user's private cache: a shared, predictable /tmp/photic_dask let others
+        # read the units or plant their own)
+        from photic.distributed.store import cache_dir, private_dir
+        try:
+            cache = private_dir(cache_dir() / "dask") / item.fingerprint[:16]
+        except OSError as exc:
+            self.fail(f"Dask render: cannot keep its units: {exc}")
+            return
         done = [0]
         stop = threading.Event()
         holder: dict = {}

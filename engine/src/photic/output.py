@@ -223,9 +223,22 @@ def _finite_list(a) -> list:
     return np.where(np.isfinite(a), a, None).tolist()
 
 
-def _cell(x):
-    """A CSV cell: '' for a value that is missing (None)."""
-    return "" if x is None else x
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def csv_text(x):
+    """A CSV cell: '' for a value that is missing (None); text that a spreadsheet would take
+    for a formula (beginning with = + - @, a tab or a carriage return: a radiometer named
+    '=HYPERLINK(...)') with an apostrophe in front, as spreadsheets write it. Numbers as
+    they are."""
+    if x is None:
+        return ""
+    if isinstance(x, str) and x.startswith(_FORMULA_START):
+        return "'" + x
+    return x
+
+
+_cell = csv_text
 
 
 def radiometer_rows(result: RenderResult) -> list[dict]:
