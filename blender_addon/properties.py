@@ -454,8 +454,8 @@ class PhoticWorldProperties(bpy.types.PropertyGroup):
                ("CARDIOIDAL", "Cardioidal", "Overcast sky, L = L0 (1 + 2 cos zenith angle)"),
                ("BLACK", "Black", "No sky light (sun only)")],
         description="Radiance of the sky over the upper hemisphere")
-    # (at most 1e9: the engine's limit, the float32 image's variances stay finite)
-    radiance: FloatProperty(name="Radiance L0 (W m⁻² sr⁻¹)", default=0.1, min=0.0, max=1e9,
+    # (at most 1e8: the engine's limit, the float32 image's variances stay finite)
+    radiance: FloatProperty(name="Radiance L0 (W m⁻² sr⁻¹)", default=0.1, min=0.0, max=1e8,
                             soft_max=100.0,
                             description="Sky radiance scale L0 (W m^-2 sr^-1 per unit of the "
                                         "band's spectrum)")

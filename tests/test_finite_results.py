@@ -4,7 +4,7 @@ with the hybrid integrator to finite images (in float32, as the EXR holds them) 
 radiometer values; the JSON tables are strict JSON and no table holds 'nan' or 'inf'. A
 value that cannot be computed (Kd where Ed is 0) is written empty, with a note, and never
 marked trusted. Ranges that could not give finite numbers were narrowed (sun irradiance and
-sky radiance to 1e9, the sun's disk to >= 0.01 degrees, a radiance meter's cap to >= 0.01
+sky radiance to 1e8, the sun's disk to >= 0.001 degrees, a radiance meter's cap to >= 0.01
 degrees)."""
 from __future__ import annotations
 
@@ -147,7 +147,7 @@ def test_the_smallest_brightest_sun_in_view_stays_finite_in_the_image(tmp_path):
     d = _sun_scene(zenith_deg=0.0, angular_diameter_deg=1e-300, irradiance=[MAX_SOURCE] * 2)
     with pytest.raises(SceneError, match="angular_diameter_deg"):
         Scene.from_dict(d)
-    d["sun"]["angular_diameter_deg"] = 0.01
+    d["sun"]["angular_diameter_deg"] = 0.001
     cam = d["cameras"][0]
     cam.update(position=[0, 0, 1], look_at=[0, 0, 2], up=[0, 1, 0], fov_deg=1e-3)
     res = render(Scene.from_dict(d), samples=4, radiometer_samples=256)

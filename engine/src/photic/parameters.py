@@ -23,12 +23,12 @@ MAX_COORDINATE_M = 1e6
 # Sun irradiance and sky radiance per band: far beyond any sun (about 2 W m^-2 nm^-1; photon
 # units need micromol, not quanta), and the image (float32) stays finite: a pixel's variance is
 # about its radiance squared, and float32 ends at 3.4e38 (1e20 gave inf variances). With the
-# smallest sun disk (MIN_SUN_DIAMETER_DEG) the disk's radiance is at most 4.2e16, its square
-# 1.8e33 (issue 49).
-MAX_SOURCE = 1e9
+# smallest sun disk (MIN_SUN_DIAMETER_DEG) the disk's radiance is at most 4.2e17, its square
+# 1.8e35 (issue 49).
+MAX_SOURCE = 1e8
 # The smallest sun disk (degrees): the disk's radiance E / (pi sin^2 alpha) must stay finite
 # and its square fit a float32 image (1e-300 made every pixel NaN).
-MIN_SUN_DIAMETER_DEG = 0.01
+MIN_SUN_DIAMETER_DEG = 0.001
 # The narrowest radiance meter (half-angle, degrees): its cap's solid angle 2 pi (1 - cos)
 # keeps 8 digits in double precision (1e-9 gave 0, and NaN values marked trusted).
 MIN_HALF_ANGLE_DEG = 0.01
