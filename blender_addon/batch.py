@@ -103,7 +103,8 @@ def render_blend(path, frame: int | None = None, out_dir=None, samples: int | No
         from . import natural_waters
         from .radiometers import render_radiometers
         natural_waters.read_volumes(scene)
-        summary = render_radiometers(bpy.context.evaluated_depsgraph_get(), progress=progress)
+        summary = render_radiometers(bpy.context.evaluated_depsgraph_get(), progress=progress,
+                                     should_stop=final_render.CANCEL.is_set)
         summary["image"] = None
         return summary
     # (Volume grids: read before the frame by natural_waters' render_pre handler)
@@ -114,6 +115,9 @@ def render_blend(path, frame: int | None = None, out_dir=None, samples: int | No
     finally:
         final_render.PROGRESS_HOOK = None
     summary = dict(final_render.LAST_RENDER)
+    if summary.get("cancelled") and not summary.get("samples"):  # stopped before a sample
+        summary.update(image=None, nothing_done=True)
+        return summary
     if not summary or summary.get("error"):
         raise RuntimeError(summary.get("error") or "the render did not run (is the scene's "
                                                    "render engine Photic and is there a camera?)")

@@ -4,6 +4,8 @@ It lives in the add-on package so that the engine (``photic``) never imports Ble
 from __future__ import annotations
 
 import argparse
+import os
+import signal
 import sys
 from pathlib import Path
 
@@ -41,8 +43,44 @@ def build_parser() -> argparse.ArgumentParser:
     return bl
 
 
+_STOP = {"requested": False}
+
+
+def _on_sigint(signum, frame) -> None:
+    """Ctrl-C: the render stops as Esc stops it (the worker cancelled and joined, what is
+    finished written); a second Ctrl-C ends the process at once, without a traceback (every
+    output is written atomically: nothing half-written is left)."""
+    if _STOP["requested"]:
+        print("\nphotic-blend: interrupted again: stopped at once", file=sys.stderr, flush=True)
+        os._exit(130)
+    _STOP["requested"] = True
+    module = sys.modules.get(f"{__package__}.final_render")
+    if module is not None:
+        module.CANCEL.set()
+    print("\nphotic-blend: stopping; keeping what is finished (Ctrl-C again to stop at once)",
+          file=sys.stderr, flush=True)
+
+
+def _interrupted_early() -> int:
+    print("photic-blend: interrupted before the render started; nothing was written",
+          file=sys.stderr)
+    return 130
+
+
 def run(args) -> int:
     """Render one frame of a .blend file (the parsed arguments of main)."""
+    # Installed before bpy is imported (a KeyboardInterrupt inside its import crashed the
+    # process) and kept for the whole render (one inside the render left its worker running).
+    from photic import cli as engine_cli
+    _STOP["requested"] = bool(engine_cli.EARLY_INTERRUPT["requested"])  # while photic loaded
+    previous = signal.signal(signal.SIGINT, _on_sigint)
+    try:
+        return _run(args)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _run(args) -> int:
     try:
         import bpy  # noqa: F401  (Blender as a Python module)
     except ImportError as exc:
@@ -50,7 +88,10 @@ def run(args) -> int:
               f"'pip install bpy==5.0.*' (Python 3.11)", file=sys.stderr)
         return 2
     try:
-        from . import batch
+        from . import batch, final_render
+        final_render.CANCEL.clear()
+        if _STOP["requested"]:
+            return _interrupted_early()
         bar, progress = None, None
         if not args.quiet:
             from tqdm import tqdm
@@ -75,8 +116,14 @@ def run(args) -> int:
             if bar is not None:
                 bar.close()
     except (FileNotFoundError, RuntimeError) as exc:
+        if _STOP["requested"]:  # (the message of a render stopped before it began)
+            return _interrupted_early()
         print(f"photic-blend: {exc}", file=sys.stderr)
         return 2
+    if summary.get("nothing_done"):
+        print("photic-blend: cancelled before the first sample; nothing was written",
+              file=sys.stderr)
+        return 130
     if summary.get("image"):
         print(f"image: {summary['image']}")
     if summary.get("png"):
@@ -88,7 +135,8 @@ def run(args) -> int:
         print(f"target error {100 * st['target_error']:.3g} %: reached by {st['target_reached']} "
               f"radiometers in {st['rounds']} rounds (at most {st['radiometer_samples']} samples)")
     if summary.get("cancelled"):
-        print("cancelled: the image holds the samples finished so far", file=sys.stderr)
+        print("cancelled: the image and tables hold the samples finished so far", file=sys.stderr)
+        return 130
     return 0
 
 

@@ -19,7 +19,10 @@ class PhoticRenderEngine(bpy.types.RenderEngine):
 
     def __del__(self):
         # The viewport's worker thread must not outlive the engine.
-        vp = getattr(self, "viewport", None)
+        try:
+            vp = getattr(self, "viewport", None)
+        except ReferenceError:  # Blender freed the engine first (a render that was stopped)
+            return
         if vp is not None:
             vp.stop()
 

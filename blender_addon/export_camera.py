@@ -46,6 +46,9 @@ def camera(ex, view_camera: ViewCamera | None, resolution: tuple[int, int]):
     owner = _obj(cam.name)
     data = cam.data
     m = np.asarray(cam.matrix_world, float)
+    if not np.isfinite(m).all():
+        from .export import non_finite_transform
+        raise non_finite_transform(cam)
     fwd, up = -m[:3, 2], m[:3, 1]
     if not (np.linalg.norm(fwd) > 0 and np.linalg.norm(up) > 0):
         raise ExportError(owner, "Scale", "is zero: the camera has no viewing direction")

@@ -38,6 +38,10 @@ def model_iops(ex, owner: str, text: str, prop: str, defaults: dict | None = Non
         spec = json.loads(text)
     except ValueError as exc:
         raise ExportError(owner, prop, f"is not valid JSON: {exc}") from None
+    except RecursionError:  # (it was 'internal error: RecursionError')
+        raise ExportError(owner, prop, "is nested too deeply (lists or objects inside one "
+                                       "another hundreds of levels deep): a model description "
+                                       "is a few levels at most") from None
     if not isinstance(spec, dict):
         raise ExportError(owner, prop, "must be a JSON object such as "
                                        "{\"model\": \"cdom\", \"a_ref\": 0.1}")
@@ -47,6 +51,9 @@ def model_iops(ex, owner: str, text: str, prop: str, defaults: dict | None = Non
         return iops_from_model(spec, [S.Band(*b) for b in ex.bands], obj=owner)
     except S.SceneError as exc:
         raise ExportError(owner, prop, f"field '{exc.field}': {exc.message}") from None
+    except RecursionError:
+        raise ExportError(owner, prop, "is nested too deeply: a model description is a few "
+                                       "levels at most") from None
 
 
 def phase_function(ex, owner: str, kind: str, g: float, backscatter: float,

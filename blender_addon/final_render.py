@@ -62,6 +62,15 @@ def apply_auto_exposure(scene) -> float | None:
 #: (a background Blender shows neither): ``photic blend`` draws its progress bar with it.
 PROGRESS_HOOK = None
 
+#: Set (by ``photic blend``'s Ctrl-C handler) to stop the render as Esc does: the worker is
+#: cancelled and joined, and what is finished is kept.
+CANCEL = threading.Event()
+
+
+def stop_requested(engine) -> bool:
+    """Esc in Blender (``engine.test_break()``) or a Ctrl-C of ``photic blend`` (CANCEL)."""
+    return CANCEL.is_set() or bool(engine.test_break())
+
 
 def set_rect(render_pass, image: np.ndarray) -> None:
     """Write an (H, W, C) top-row-first image into a render pass (bottom row first).
@@ -250,6 +259,27 @@ class DisplayStream:
             self._thread.join()
 
 
+def is_this_machine(host: str) -> bool:
+    """Whether a scheduler host is this machine: a loopback IP address (127.0.0.0/8, ::1,
+    parsed, not matched as text: 127.attacker.example is a name, resolved elsewhere), or the
+    name 'localhost' when every address it resolves to is a loopback one. Any other name
+    counts as another machine (what it resolves to may change)."""
+    import ipaddress
+    import socket
+    host = host.strip().strip("[]")
+    try:
+        return ipaddress.ip_address(host.split("%", 1)[0]).is_loopback
+    except ValueError:
+        pass
+    if host.lower().rstrip(".") != "localhost":
+        return False
+    try:
+        infos = socket.getaddrinfo("localhost", None)
+    except OSError:
+        return False
+    return bool(infos) and all(ipaddress.ip_address(i[4][0].split("%", 1)[0]).is_loopback for i in infos)
+
+
 def remote_scheduler_refusal(address: str, allowed: bool) -> str | None:
     """Why a render must not go to the Dask scheduler at ``address``, or None: an address
     that is not one, or a plain tcp:// scheduler on another machine without the user's
@@ -260,7 +290,7 @@ def remote_scheduler_refusal(address: str, allowed: bool) -> str | None:
         scheme, host, _ = check_scheduler_address(address)
     except SchedulerError as exc:
         return f"Render > Photic > Dask Scheduler: {exc}"
-    local = host in ("localhost", "::1") or host.startswith("127.")
+    local = is_this_machine(host)
     if scheme == "tcp" and not local and not allowed:
         return (f"Render > Photic > Dask Scheduler: {address} is another machine over plain tcp:// "
                 f"(unencrypted, unauthenticated: whoever reaches that scheduler runs code on its "
@@ -414,14 +444,13 @@ def write_radiometer_results(photic, final, bscene, report) -> list[str]:
     if not bscene.photic.write_tables:
         return []
     out_dir, stem = table_stem(bscene)
-    try:
-        paths = photic.output.write_radiometer_tables(out_dir, final, f"{stem}")
-    except OSError as exc:
-        report("WARNING", f"radiometer tables not written to {out_dir}: {exc}")
-        return []
-    derived = photic.output.write_derived_table(Path(out_dir) / f"{stem}_derived.csv", final)
-    print(f"Photic: radiometer tables {paths[0]} and {paths[1]}")
-    return [str(p) for p in paths] + ([str(derived)] if derived else [])
+    written = photic.output.write_outputs(out_dir, final, stem=f"{stem}", images=False)
+    for failure in written["failed"]:  # each table on its own, kept elsewhere when it fails
+        report("WARNING", f"radiometer table {failure}")
+    paths = written["tables"]
+    if paths:
+        print("Photic: radiometer tables " + ", ".join(str(p) for p in paths))
+    return [str(p) for p in paths] + [str(f.kept) for f in written["failed"] if f.kept]
 
 
 class FinalRender:
@@ -456,6 +485,8 @@ class FinalRender:
         t0 = time.perf_counter()
         try:
             self._run(t0)
+        except KeyboardInterrupt:  # outside the polling loop (the export): a cancel
+            self.summary["cancelled"] = True
         except Exception as exc:  # never a crash of Blender: report and keep running
             traceback.print_exc()
             self.fail(f"internal error: {type(exc).__name__}: {exc} (details in the console)")
@@ -480,7 +511,7 @@ class FinalRender:
 
         try:
             scene, info = export_scene(self.depsgraph, photic, progress=export_progress,
-                                       test_break=engine.test_break)
+                                       test_break=lambda: stop_requested(engine))
         except ExportCancelled:
             self.summary["cancelled"] = True
             return
@@ -610,7 +641,14 @@ class FinalRender:
         preview = CameraPreview(item, job) if camera is not None else None
         # Units are kept per scene fingerprint: rendering an unchanged frame again (or after
         # an interruption) reuses the units already computed.
-        cache = Path(tempfile.gettempdir()) / "photic_dask" / item.fingerprint[:16]
+        # (in this user's private cache: a shared, predictable /tmp/photic_dask let others
+        # read the units or plant their own)
+        from photic.distributed.store import cache_dir, private_dir
+        try:
+            cache = private_dir(cache_dir() / "dask") / item.fingerprint[:16]
+        except OSError as exc:
+            self.fail(f"Dask render: cannot keep its units: {exc}")
+            return
         done = [0]
         stop = threading.Event()
         holder: dict = {}
@@ -693,9 +731,13 @@ class FinalRender:
         try:
             thread.start()
             while thread.is_alive():
-                thread.join(POLL_S)
+                interrupted = False
+                try:
+                    thread.join(POLL_S)
+                except KeyboardInterrupt:  # Ctrl-C where Python raises it: a cancel, as Esc
+                    interrupted = True
                 now = time.perf_counter()
-                if cancel_at is None and engine.test_break():
+                if cancel_at is None and (interrupted or stop_requested(engine)):
                     cancel_at = now
                     cancel()
                     self.stats("cancelling")
@@ -708,7 +750,13 @@ class FinalRender:
         finally:
             if thread.is_alive():  # an exception in the loop: stop the worker first
                 cancel()
-            thread.join()
+            # Joined whatever happens: a worker left running when the interpreter unwinds
+            # aborts the process (SIGABRT, 'terminate called without an active exception').
+            while thread.is_alive():
+                try:
+                    thread.join()
+                except KeyboardInterrupt:
+                    cancel()
             if cancel_at is not None:
                 self.summary["cancelled"] = True
                 self.summary["cancel_at"] = cancel_at  # (perf_counter: when test_break said so)

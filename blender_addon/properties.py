@@ -397,7 +397,7 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
     half_angle: FloatProperty(name="Cap Half-Angle", subtype="ANGLE", default=math.radians(12.9),
                               min=math.radians(0.01), max=math.radians(90.0),
                               description="Half-angle of a radiance meter's field of view "
-                                          "(degrees), in (0, 90]")
+                                          "(degrees), in [0.01, 90]")
     polar_bins: IntProperty(name="Polar Bins", default=18, min=1, max=180,
                             description="Radiance distribution: bins in zenith angle over 180 "
                                         "degrees")
@@ -479,8 +479,8 @@ class PhoticWorldProperties(bpy.types.PropertyGroup):
                ("CARDIOIDAL", "Cardioidal", "Overcast sky, L = L0 (1 + 2 cos zenith angle)"),
                ("BLACK", "Black", "No sky light (sun only)")],
         description="Radiance of the sky over the upper hemisphere")
-    # (at most 1e20: the engine's limit, the float32 image stays finite)
-    radiance: FloatProperty(name="L (W m⁻² sr⁻¹)", default=0.1, min=0.0, max=1e20,
+    # (at most 1e8: the engine's limit, the float32 image's variances stay finite)
+    radiance: FloatProperty(name="L (W m⁻² sr⁻¹)", default=0.1, min=0.0, max=1e8,
                             soft_max=100.0,
                             description="Sky radiance scale L0 (W m^-2 sr^-1 per unit of the "
                                         "band's spectrum)")

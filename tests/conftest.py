@@ -1,6 +1,15 @@
-"""Make ``photic`` importable from the source tree when it is not installed."""
+"""Make ``photic`` importable from the source tree when it is not installed; keep the
+tests' secrets and caches out of the user's own folders."""
+import os
 import sys
+import tempfile
 from pathlib import Path
+
+# Photic's per-user unit key and Dask cache (photic.distributed.store) go to folders of this
+# test session, inherited by the processes the tests start.
+_PRIVATE = tempfile.mkdtemp(prefix="photic-tests-")
+os.environ.setdefault("PHOTIC_CONFIG_DIR", os.path.join(_PRIVATE, "config"))
+os.environ.setdefault("PHOTIC_CACHE_DIR", os.path.join(_PRIVATE, "cache"))
 
 try:
     import photic  # noqa: F401

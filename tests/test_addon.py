@@ -1195,7 +1195,7 @@ ADDON_PARAMETERS = [
     ("PhoticObjectProperties", "fetch", "surface.fetch_m", 1.0, "open end"),
     ("PhoticObjectProperties", "wave_depth", "surface.water_depth_m", 1.0, "0 is deep water"),
     ("PhoticWorldProperties", "radiance", "sky.radiance", 1.0, None),
-    ("PhoticObjectProperties", "half_angle", "radiometer.half_angle_deg", 180.0 / math.pi, "open end"),
+    ("PhoticObjectProperties", "half_angle", "radiometer.half_angle_deg", 180.0 / math.pi, None),
     ("PhoticObjectProperties", "polar_bins", "radiometer.polar_bins", 1.0, "a table"),
     ("PhoticObjectProperties", "azimuth_bins", "radiometer.azimuth_bins", 1.0, "a table"),
 ]
@@ -1228,3 +1228,63 @@ def test_addon_property_limits_agree_with_the_declared_parameters(empty, cls, pr
     if p.default is not None and not isinstance(p.default, str) and narrower != "percent":
         default = p.default[0] if isinstance(p.default, list) else p.default  # a square patch
         assert rna.default * scale == pytest.approx(default, rel=1e-6), (prop, rna.default, p.default)
+
+
+# ------------------------------------------------------------------------------------------
+# Transforms and texts that are not numbers (issue 49, kind 8)
+# ------------------------------------------------------------------------------------------
+
+NAN = float("nan")  # (Blender stores an infinity as the largest float: a size, not a NaN)
+
+
+@pytest.mark.parametrize("what, attr, value, field", [
+    ("box", "scale", (NAN, 1, 1), "Scale (scale)"),
+    ("box", "scale", (1, NAN, 1), "Scale (scale)"),
+    ("box", "location", (0, NAN, 0), "Location (location)"),
+    ("box", "rotation_euler", (NAN, 0, 0), "Rotation (rotation_euler)"),
+    ("box", "delta_scale", (1, 1, NAN), "Delta Scale (delta_scale)"),
+    ("sea", "scale", (NAN, NAN, NAN), "Scale (scale)"),
+    ("sun", "rotation_euler", (NAN, 0, 0), "Rotation (rotation_euler)"),
+    ("sun", "scale", (NAN, 1, 1), "Scale (scale)"),
+    ("camera", "rotation_euler", (0, NAN, 0), "Rotation (rotation_euler)"),
+    ("camera", "location", (NAN, 0, 0), "Location (location)"),
+])
+def test_a_transform_that_is_not_a_number_names_its_field(empty, what, attr, value, field):
+    """A NaN scale dropped the object silently ('zero-area triangles'); a NaN sun rotation
+    said 'Scale: is zero'. Now the error names the object and the transform field."""
+    cam = add_camera()
+    sea = add_sea()
+    sun = add_sun()
+    box = add_box("Rock", location=(0, 0, -2))
+    target = {"box": box, "sea": sea, "sun": sun, "camera": cam}[what]
+    setattr(target, attr, value)
+    with pytest.raises(export.ExportError) as info:
+        export_current()
+    message = str(info.value)
+    owner = f"Light '{target.name}'" if what == "sun" else f"Object '{target.name}'"
+    assert owner in message and field in message and "not a finite number" in message, message
+    assert "zero" not in message, message
+
+
+def test_a_child_of_a_parent_with_a_nan_scale_names_the_parent(empty):
+    add_camera()
+    add_sea()
+    parent = add_box("Parent", location=(0, 0, -3))
+    child = add_box("Child", location=(1, 0, -3))
+    child.parent = parent
+    parent.scale = (NAN, 1, 1)
+    with pytest.raises(export.ExportError, match=r"Object '(Parent|Child)'.*not a finite number"):
+        export_current()
+
+
+@pytest.mark.parametrize("depth", [200, 5000, 100000])
+def test_a_deeply_nested_iop_model_text_is_a_clear_error(empty, depth):
+    add_camera()
+    sea = add_sea()
+    sea.photic.iop_source = "MODEL"
+    sea.photic.iop_model = '{"model": "cdom", "a_ref": ' + "[" * depth + "]" * depth + "}"
+    with pytest.raises(export.ExportError) as info:
+        export_current()
+    message = str(info.value)
+    assert "Object 'Sea'" in message and "IOP Model" in message, message
+    assert "RecursionError" not in message and "internal error" not in message, message

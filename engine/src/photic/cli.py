@@ -3,8 +3,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import signal
 import sys
+import threading
 from pathlib import Path
 
 
@@ -110,7 +112,7 @@ def target_summary(result) -> str | None:
 
 
 def cmd_render(args) -> int:
-    from .output import check_output_dir, write_outputs
+    from .output import check_output_dir, check_output_files, write_outputs
     from .render import Renderer
     from .scene import SceneError, load_scene
 
@@ -136,6 +138,11 @@ def cmd_render(args) -> int:
         return 2
     except (OSError, ValueError) as e:
         print(f"photic: cannot load {args.scene}: {e}", file=sys.stderr)
+        return 2
+    try:
+        check_output_files(args.out, scene)
+    except OSError as e:
+        print(f"photic: {e}", file=sys.stderr)
         return 2
     if args.beam_mesh is not None and scene.sun is None:
         print(f"photic: --beam-mesh: scene {scene.name} has no sun, so no beams", file=sys.stderr)
@@ -192,7 +199,9 @@ def cmd_render(args) -> int:
         print(f"image: {p}")
     for p in written["tables"]:
         print(f"radiometer table: {p}")
-    status = 130 if result.cancelled else 0
+    for f in written["failed"]:
+        print(f"photic: {f}", file=sys.stderr)
+    status = 130 if result.cancelled else (1 if written["failed"] else 0)
     if args.beam_mesh is not None and not result.cancelled:
         status = _write_beam_mesh(scene, args.beam_mesh, renderer.threads) or status
     return status
@@ -516,10 +525,28 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+#: A Ctrl-C while ``photic blend`` loads (bpy takes seconds, and a KeyboardInterrupt inside
+#: its import crashed the process): photic_blender.cli reads it once its own handler is in.
+EARLY_INTERRUPT = {"requested": False}
+
+
+def _early_sigint(signum, frame) -> None:
+    if EARLY_INTERRUPT["requested"]:
+        os._exit(130)
+    EARLY_INTERRUPT["requested"] = True
+
+
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else [str(a) for a in argv]
     if argv[:1] == ["blend"]:  # everything after it is photic-blend's (--help included)
-        return cmd_blend(argparse.Namespace(args=argv[1:]))
+        if threading.current_thread() is not threading.main_thread():
+            return cmd_blend(argparse.Namespace(args=argv[1:]))
+        EARLY_INTERRUPT["requested"] = False
+        previous = signal.signal(signal.SIGINT, _early_sigint)
+        try:
+            return cmd_blend(argparse.Namespace(args=argv[1:]))
+        finally:
+            signal.signal(signal.SIGINT, previous)
     args = build_parser().parse_args(argv)
     return args.func(args)
 

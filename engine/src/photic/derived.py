@@ -71,6 +71,24 @@ class Derived:
     depths: tuple[float, float] | None = None   # (top, bottom) depth range in m, for K
     note: str = ""
     extra: dict = field(default_factory=dict)   # name -> (nbands,) array, e.g. chi2_dof of a fit
+    # Why the value of a band is not computed (NaN inside, empty in the tables): band -> text.
+    missing: dict = field(default_factory=dict)
+
+    def why_missing(self, k: int) -> str:
+        """The note of a band whose value (or standard error) is not a finite number."""
+        return self.missing.get(k) or "not computed: not a finite number"
+
+
+def _not_positive(readings, role: str = "") -> dict:
+    """{band: note} where any of ``readings`` is not > 0 (K takes their logarithm; a ratio
+    divides by them)."""
+    out = {}
+    for r in readings:
+        for k, v in enumerate(np.asarray(r.value, float).tolist()):
+            if not v > 0 and k not in out:
+                out[k] = (f"not computed: {r.name} ({r.quantity}{role}) is {v:g} in this band"
+                          + (" (no light reaches it)" if v == 0 else ""))
+    return out
 
 
 @dataclass(eq=False)
@@ -188,7 +206,7 @@ def attenuation(r1, r2, table: RadiometerTable | None = None) -> Derived:
         err = np.sqrt(_rel2(a) + _rel2(b)) / dz
     q = K_NAMES[a.quantity]
     return Derived(f"{q}({a.name}, {b.name})", q, value, err, UNITS_K, (a.name, b.name), a.medium,
-                   a.position.copy(), (a.depth, b.depth))
+                   a.position.copy(), (a.depth, b.depth), missing=_not_positive((a, b)))
 
 
 def attenuation_fit(readings, table: RadiometerTable | None = None) -> Derived:
@@ -232,7 +250,7 @@ def attenuation_fit(readings, table: RadiometerTable | None = None) -> Derived:
     q = K_NAMES[rs[0].quantity] + "_fit"
     return Derived(f"{q}({rs[0].name} .. {rs[-1].name}, {len(rs)} depths)", q, value, err, UNITS_K,
                    tuple(r.name for r in rs), rs[0].medium, rs[0].position.copy(), (d[0], d[-1]),
-                   extra={"chi2_dof": chi2})
+                   extra={"chi2_dof": chi2}, missing=_not_positive(rs))
 
 
 def _ratio(num: Reading, den: Reading):
@@ -250,8 +268,10 @@ def _ratio_quantity(quantity: str, num, den, num_q: str, den_q: str, table, at_n
     _check_quantity(d, {den_q}, f"{quantity} denominator")
     value, err = _ratio(n, d)
     at = n if at_num else d
+    missing = {k: f"not computed: the denominator {d.name} ({d.quantity}) is 0 in this band"
+               for k, v in enumerate(np.asarray(d.value, float).tolist()) if v == 0}
     return Derived(f"{quantity}({n.name}, {d.name})", quantity, value, err, UNITS_RATIO,
-                   (n.name, d.name), at.medium, at.position.copy())
+                   (n.name, d.name), at.medium, at.position.copy(), missing=missing)
 
 
 def irradiance_reflectance(eu, ed, table: RadiometerTable | None = None) -> Derived:
@@ -291,8 +311,10 @@ def mean_cosine(ed, eu, eo=None, eod=None, eou=None, table: RadiometerTable | No
         value = np.where(eo_v != 0, (d.value - u.value) / np.where(eo_v != 0, eo_v, 1.0), np.nan)
         err = np.sqrt((d.stderr ** 2 + u.stderr ** 2) / eo_v ** 2 + (value * eo_s / eo_v) ** 2)
     sources = (d.name, u.name, *names)
+    missing = {k: f"not computed: Eo ({' + '.join(names)}) is 0 in this band"
+               for k, v in enumerate(np.asarray(eo_v, float).tolist()) if v == 0}
     return Derived(f"mu({', '.join(sources)})", "mu", value, err, UNITS_RATIO, sources, d.medium,
-                   d.position.copy())
+                   d.position.copy(), missing=missing)
 
 
 def remote_sensing_reflectance(lu, ed, sky=None, rho: float | None = None, reflected=None,
@@ -344,8 +366,10 @@ def remote_sensing_reflectance(lu, ed, sky=None, rho: float | None = None, refle
     with np.errstate(divide="ignore", invalid="ignore"):
         value = np.where(d.value != 0, lw / np.where(d.value != 0, d.value, 1.0), np.nan)
         err = np.sqrt(lw_var / d.value ** 2 + (value * d.stderr / d.value) ** 2)
+    missing = {k: f"not computed: Ed(0+) {d.name} is 0 in this band"
+               for k, v in enumerate(np.asarray(d.value, float).tolist()) if v == 0}
     return Derived(f"{q}({', '.join(sources)})", q, value, err, UNITS_RRS, tuple(sources), "air",
-                   u.position.copy(), note=note)
+                   u.position.copy(), note=note, missing=missing)
 
 
 # --- matching radiometers -----------------------------------------------------------------
@@ -454,10 +478,15 @@ def derived_rows(derived: list[Derived], bands) -> list[dict]:
     rows = []
     for q in derived:
         for k, (band, center) in enumerate(bands):
+            value, err = float(q.value[k]), float(q.stderr[k])
+            note = q.note
+            if not (np.isfinite(value) and np.isfinite(err)):  # empty with a note, never NaN
+                value = err = None
+                note = "; ".join(x for x in (q.why_missing(k), note) if x)
             row = {"name": q.name, "quantity": q.quantity, "band": band, "center_nm": center,
-                   "value": float(q.value[k]), "stderr": float(q.stderr[k]), "units": q.units,
+                   "value": value, "stderr": err, "units": q.units,
                    "medium": q.medium, "x_m": float(q.position[0]), "y_m": float(q.position[1]),
-                   "z_m": float(q.position[2]), "sources": ";".join(q.sources), "note": q.note}
+                   "z_m": float(q.position[2]), "sources": ";".join(q.sources), "note": note}
             if q.depths is not None:
                 row["depth_top_m"], row["depth_bottom_m"] = float(q.depths[0]), float(q.depths[1])
             if "chi2_dof" in q.extra and np.isfinite(q.extra["chi2_dof"][k]):
@@ -468,16 +497,17 @@ def derived_rows(derived: list[Derived], bands) -> list[dict]:
 
 def write_derived_csv(path, derived: list[Derived], bands, header: str = "") -> Path:
     """The rows of ``derived_rows`` as CSV, after a '#' comment line."""
+    from .output import atomic_file, csv_text
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as f:
+    with atomic_file(path, "w", newline="", encoding="utf-8") as f:
         f.write("# photic derived quantities" + (f"; {header}" if header else "") +
                 "; value +- stderr (first-order propagation, radiometers independent); depth = -z (m); "
                 "K = -d ln E / d depth\n")
         w = csv.DictWriter(f, fieldnames=CSV_FIELDS)
         w.writeheader()
         for row in derived_rows(derived, bands):
-            w.writerow({k: row.get(k, "") for k in CSV_FIELDS})
+            w.writerow({k: csv_text(row.get(k, "")) for k in CSV_FIELDS})
     return path
 
 
@@ -487,6 +517,6 @@ def format_table(derived: list[Derived], bands) -> str:
     width = max([len("name")] + [len(r["name"]) for r in rows])
     lines = [f"{'name':<{width}} {'quantity':<16} {'band':<8} {'value +- stderr':<28} units"]
     for r in rows:
-        ve = f"{r['value']:.6g} +- {r['stderr']:.2g}"
+        ve = ("not computed" if r["value"] is None else f"{r['value']:.6g} +- {r['stderr']:.2g}")
         lines.append(f"{r['name']:<{width}} {r['quantity']:<16} {r['band']:<8} {ve:<28} {r['units']}")
     return "\n".join(lines)

@@ -1,10 +1,14 @@
 """Files written by a render: multilayer OpenEXR images and radiometer tables (CSV, JSON)."""
 from __future__ import annotations
 
+import contextlib
 import csv
+import errno
 import json
 import os
 import re
+import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +24,49 @@ COMPONENT_DESCRIPTIONS = {
     "beam_direct": "refracted sun reaching the radiometer directly, from the beams in closed form",
 }
 IMAGE_COMPONENTS = COMPONENTS[:3]
+
+
+@contextlib.contextmanager
+def atomic_file(path, mode: str = "w", **kw):
+    """Open ``path`` for writing under a temporary name beside it, flushed to the disk and
+    renamed to ``path`` when the block ends without an error (os.replace: atomic on one file
+    system); on an error (a full disk, a name that cannot be encoded) the temporary file is
+    removed and an existing file of that name is left as it was: a reader never sees a
+    truncated file under the final name."""
+    path = Path(path)
+    if path.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "a folder of that name is in the way", str(path))
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, mode, **kw) as f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    finally:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+
+
+@dataclass
+class WriteFailure:
+    """An output that could not be written where it belonged: ``path``, why (``reason``), and
+    where it was kept instead (``kept``, None when nowhere)."""
+
+    path: Path
+    reason: str
+    kept: Path | None = None
+
+    def __str__(self) -> str:
+        where = (f"kept in {self.kept}" if self.kept is not None else
+                 "not kept anywhere (the rescue folder failed too)")
+        return f"could not write {self.path}: {self.reason}; {where}"
+
+
+def _reason(exc: BaseException) -> str:
+    if isinstance(exc, OSError) and exc.strerror:
+        return exc.strerror
+    return f"{type(exc).__name__}: {exc}"
 
 
 def _safe(name: str, limit: int = 200) -> str:
@@ -72,6 +119,8 @@ def write_exr(path, result: RenderResult, camera: str) -> Path:
         header["photic:cancelled"] = "1: a partial result (the passes finished before the render was stopped)"
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    if path.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "a folder of that name is in the way", str(path))
     # Written beside and renamed: a render killed while writing leaves no truncated file under
     # the final name (os.replace is atomic on one file system).
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
@@ -80,7 +129,7 @@ def write_exr(path, result: RenderResult, camera: str) -> Path:
             f.write(str(tmp))
         os.replace(tmp, path)
     finally:
-        if tmp.exists():
+        with contextlib.suppress(OSError):
             tmp.unlink()
     return path
 
@@ -102,6 +151,28 @@ def check_output_dir(out_dir) -> Path:
     return out
 
 
+def planned_outputs(out_dir, scene) -> list[Path]:
+    """The files ``photic render`` will write for ``scene`` into ``out_dir``."""
+    out = Path(out_dir)
+    paths = [out / n for n in output_names(scene.name, [c.name for c in scene.cameras]).values()]
+    if scene.all_radiometers():
+        stem = _safe(scene.name)
+        paths += [out / f"{stem}_radiometers.csv", out / f"{stem}_radiometers.json",
+                  out / f"{stem}_derived.csv"]
+    return paths
+
+
+def check_output_files(out_dir, scene) -> None:
+    """Before a render: each output's destination must be free for a file (a folder of the
+    same name made the EXR fail after the render, losing the tables). OSError naming it."""
+    for path in planned_outputs(out_dir, scene):
+        if path.is_dir():
+            raise OSError(f"--out {out_dir}: {path.name} is a folder, but the render writes a "
+                          f"file of that name; move or rename the folder")
+        if path.exists() and not os.access(path, os.W_OK) and not os.access(path.parent, os.W_OK):
+            raise OSError(f"--out {out_dir}: {path.name} exists and cannot be replaced")
+
+
 def output_names(scene_name: str, cameras) -> dict[str, str]:
     """The EXR file name of each camera, distinct: names that differ only in characters a file
     name cannot keep ('cam€' and 'cam£' both give 'cam_') get a short hash of the name."""
@@ -116,14 +187,58 @@ def output_names(scene_name: str, cameras) -> dict[str, str]:
     return out
 
 
+NOT_COMPUTED = "not computed: the value or its standard error is not a finite number"
+
+
+def _computed(r, b: int, k: int) -> bool:
+    """Whether bin b, band k has a finite value and standard error (tables never hold NaN or
+    inf: a value that cannot be computed is written empty, with a note)."""
+    return bool(np.isfinite(r.mean[b, k]) and np.isfinite(r.stderr[b, k]))
+
+
 def _trusted(r, b: int, k: int) -> bool:
-    """Whether the standard error of bin b, band k can be trusted (photic.estimates)."""
-    return r.reliable is None or bool(r.reliable[b, k])
+    """Whether the standard error of bin b, band k can be trusted (photic.estimates); never
+    where the value is not computed."""
+    return _computed(r, b, k) and (r.reliable is None or bool(r.reliable[b, k]))
 
 
 def _note(r, b: int, k: int) -> str:
     """Why a standard error is not to be trusted ('' when it is)."""
+    if not _computed(r, b, k):
+        return NOT_COMPUTED
     return "" if _trusted(r, b, k) else "; ".join(r.notes)
+
+
+def _finite(x) -> float | None:
+    """A number for a table: None (empty, null) unless finite."""
+    x = float(x)
+    return x if np.isfinite(x) else None
+
+
+def _finite_list(a) -> list:
+    """A nested list of an array with None (null) where a value is not finite."""
+    a = np.asarray(a, dtype=np.float64)
+    if np.isfinite(a).all():
+        return a.tolist()
+    return np.where(np.isfinite(a), a, None).tolist()
+
+
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def csv_text(x):
+    """A CSV cell: '' for a value that is missing (None); text that a spreadsheet would take
+    for a formula (beginning with = + - @, a tab or a carriage return: a radiometer named
+    '=HYPERLINK(...)') with an apostrophe in front, as spreadsheets write it. Numbers as
+    they are."""
+    if x is None:
+        return ""
+    if isinstance(x, str) and x.startswith(_FORMULA_START):
+        return "'" + x
+    return x
+
+
+_cell = csv_text
 
 
 def radiometer_rows(result: RenderResult) -> list[dict]:
@@ -136,14 +251,14 @@ def radiometer_rows(result: RenderResult) -> list[dict]:
                 row = {"name": r.name, "quantity": r.quantity,
                        "x_m": r.position[0], "y_m": r.position[1], "z_m": r.position[2],
                        "medium": r.medium, "band": band.name, "center_nm": band.center_nm,
-                       "bin": b, "value": float(r.mean[b, k]), "stderr": float(r.stderr[b, k]),
+                       "bin": b, "value": _finite(r.mean[b, k]), "stderr": _finite(r.stderr[b, k]),
                        "stderr_trusted": _trusted(r, b, k), "stderr_note": _note(r, b, k),
                        "samples": r.samples, "units": r.units}
                 for c in COMPONENTS:
                     if c in r.components:
                         cm, ce = r.components[c]
-                        row[f"value_{c}"] = float(cm[b, k])
-                        row[f"stderr_{c}"] = float(ce[b, k])
+                        row[f"value_{c}"] = _finite(cm[b, k])
+                        row[f"stderr_{c}"] = _finite(ce[b, k])
                 if r.bins:
                     ip, ia = divmod(b, r.bins[1])
                     row["polar_deg"] = (ip + 0.5) * 180.0 / r.bins[0]
@@ -163,7 +278,7 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
               "polar_deg", "azimuth_deg", "value", "stderr", "stderr_trusted", "stderr_note",
               *(f"value_{c}" for c in COMPONENTS), *(f"stderr_{c}" for c in COMPONENTS),
               "samples", "units"]
-    with open(csv_path, "w", newline="") as f:
+    with atomic_file(csv_path, "w", newline="", encoding="utf-8") as f:
         if result.cancelled:
             f.write("# CANCELLED: a partial result (the passes finished before the render was "
                     "stopped; see samples)\n")
@@ -177,7 +292,7 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
         w = csv.DictWriter(f, fieldnames=fields)
         w.writeheader()
         for row in rows:
-            w.writerow({k: row.get(k, "") for k in fields})
+            w.writerow({k: _cell(row.get(k, "")) for k in fields})
     json_path = out_dir / f"{stem}_radiometers.json"
     doc = {"photic_version": __version__, "scene": result.scene_name,
            "bands": [{"name": b.name, "center_nm": b.center_nm, "width_nm": b.width_nm} for b in result.bands],
@@ -185,33 +300,103 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
            "radiometers": [{"name": r.name, "quantity": r.quantity, "position_m": r.position.tolist(),
                             "medium": r.medium, "units": r.units, "samples": r.samples,
                             "bins": list(r.bins) if r.bins else None,
-                            "value": r.mean.tolist(), "stderr": r.stderr.tolist(),
-                            "stderr_trusted": (r.reliable.tolist() if r.reliable is not None else None),
-                            "stderr_notes": list(r.notes),
+                            "value": _finite_list(r.mean), "stderr": _finite_list(r.stderr),
+                            "stderr_trusted": _trusted_list(r),
+                            "stderr_notes": list(r.notes) + ([NOT_COMPUTED + " (null)"] if not
+                                                             np.isfinite(r.mean).all() or not
+                                                             np.isfinite(r.stderr).all() else []),
                             **({} if r.target_error is None else
                                {"target_error": r.target_error, "relative_error": r.relative_error,
                                 "target_reached": r.target_reached}),
-                            "components": {c: {"value": r.components[c][0].tolist(),
-                                               "stderr": r.components[c][1].tolist()}
+                            "components": {c: {"value": _finite_list(r.components[c][0]),
+                                               "stderr": _finite_list(r.components[c][1])}
                                            for c in COMPONENTS if c in r.components}}
                            for r in result.radiometers],
            "components": {c: COMPONENT_DESCRIPTIONS[c] for c in COMPONENTS}}
-    json_path.write_text(json.dumps(doc, indent=1))
+    text = json.dumps(json_safe(doc), indent=1, allow_nan=False)
+    with atomic_file(json_path, "w", encoding="utf-8") as f:
+        f.write(text)
     return csv_path, json_path
 
 
-def write_outputs(out_dir, result: RenderResult) -> dict[str, list[Path]]:
-    """Every camera as EXR and the radiometer tables; returns the written paths."""
+def json_safe(x):
+    """``x`` with every float that is not finite (NaN, inf) as None (null): JSON has no NaN,
+    and a reader that takes Python's 'NaN' would take it for a number."""
+    if isinstance(x, dict):
+        return {k: json_safe(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [json_safe(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return json_safe(x.tolist())
+    if isinstance(x, (float, np.floating)):
+        return float(x) if np.isfinite(x) else None
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, np.bool_):
+        return bool(x)
+    return x
+
+
+def _trusted_list(r):
+    """stderr_trusted of the JSON table: None without reliability flags unless a value is not
+    computed, False wherever it is not."""
+    computed = np.isfinite(r.mean) & np.isfinite(r.stderr)
+    if r.reliable is None:
+        return None if computed.all() else computed.tolist()
+    return (np.asarray(r.reliable, bool) & computed).tolist()
+
+
+_WRITE_ERRORS = (OSError, ValueError, UnicodeError)  # a full disk, a folder in the way, a name
+
+
+def write_outputs(out_dir, result: RenderResult, stem: str | None = None,
+                  images: bool = True) -> dict[str, list]:
+    """Every camera as EXR (unless not ``images``) and the radiometer tables (named after
+    ``stem``, default the scene's name); returns the written paths ("images", "tables") and
+    the failures ("failed": WriteFailure).
+
+    Each file is written atomically and on its own: one that fails (a full disk, a folder in
+    the way) does not stop the others, and is written instead into a private rescue folder in
+    the system's temporary folder, which its WriteFailure names (so a finished render is never
+    lost to a write)."""
     out_dir = Path(out_dir)
-    written = {"images": [], "tables": []}
-    names = output_names(result.scene_name, list(result.images))
-    for cam in result.images:
-        written["images"].append(write_exr(out_dir / names[cam], result, cam))
+    written: dict[str, list] = {"images": [], "tables": [], "failed": []}
+    rescue: list[Path] = []
+
+    def rescue_dir() -> Path:
+        if not rescue:
+            rescue.append(Path(tempfile.mkdtemp(prefix=f"photic-rescue-{_safe(result.scene_name, 60)}-")))
+        return rescue[0]
+
+    def attempt(kind: str, path: Path, write) -> None:
+        try:
+            got = write(path.parent)
+        except _WRITE_ERRORS as exc:
+            kept = None
+            try:
+                kept = write(rescue_dir())
+            except _WRITE_ERRORS:
+                pass
+            for p in (got_paths(kept) if kept is not None else [None]):
+                written["failed"].append(WriteFailure(path if p is None else path.parent / p.name,
+                                                      _reason(exc), p))
+            return
+        written[kind].extend(got_paths(got))
+
+    def got_paths(got) -> list[Path]:
+        if got is None:
+            return []
+        return list(got) if isinstance(got, (list, tuple)) else [got]
+
+    names = output_names(result.scene_name, list(result.images)) if images else {}
+    for cam in names:
+        attempt("images", out_dir / names[cam], lambda d, c=cam: write_exr(d / names[c], result, c))
     if result.radiometers:
-        written["tables"].extend(write_radiometer_tables(out_dir, result))
-        derived = write_derived_table(out_dir / f"{_safe(result.scene_name)}_derived.csv", result)
-        if derived is not None:
-            written["tables"].append(derived)
+        stem = stem or _safe(result.scene_name)
+        attempt("tables", out_dir / f"{stem}_radiometers.csv",
+                lambda d: write_radiometer_tables(d, result, stem))
+        attempt("tables", out_dir / f"{stem}_derived.csv",
+                lambda d: write_derived_table(d / f"{stem}_derived.csv", result))
     return written
 
 

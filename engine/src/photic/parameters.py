@@ -20,9 +20,18 @@ from typing import Any
 # sizes to twice it: photic.scene.checks.MAX_COORDINATE_M, which bounds positions (this module
 # imports nothing of the scene's at load time; tests/test_parameters.py compares the two).
 MAX_COORDINATE_M = 1e6
-# Sun irradiance and sky radiance per band: far beyond any sun, and the image (float32)
-# stays finite.
-MAX_SOURCE = 1e20
+# Sun irradiance and sky radiance per band: far beyond any sun (about 2 W m^-2 nm^-1; photon
+# units need micromol, not quanta), and the image (float32) stays finite: a pixel's variance is
+# about its radiance squared, and float32 ends at 3.4e38 (1e20 gave inf variances). With the
+# smallest sun disk (MIN_SUN_DIAMETER_DEG) the disk's radiance is at most 4.2e17, its square
+# 1.8e35 (issue 49).
+MAX_SOURCE = 1e8
+# The smallest sun disk (degrees): the disk's radiance E / (pi sin^2 alpha) must stay finite
+# and its square fit a float32 image (1e-300 made every pixel NaN).
+MIN_SUN_DIAMETER_DEG = 0.001
+# The narrowest radiance meter (half-angle, degrees): its cap's solid angle 2 pi (1 - cos)
+# keeps 8 digits in double precision (1e-9 gave 0, and NaN values marked trusted).
+MIN_HALF_ANGLE_DEG = 0.01
 # |g| of Henyey-Greenstein: nearer 1 its sampling loses all precision (NaN in the hybrid).
 MAX_HG_G = 0.9999
 
@@ -152,9 +161,8 @@ PARAMETERS: dict[str, Parameter] = {p.key: p for p in [
        "solar zenith angle: the sun must be above the horizon", hi_open=True),
     Parameter("sun.irradiance", "W m^-2 (per nm)", None, 0.0, MAX_SOURCE,
        "solar irradiance normal to the sun's direction", shape=PER_BAND),
-    Parameter("sun.angular_diameter_deg", "deg", 0.53, 0.0, 20.0,
-       "angular diameter of the solar disk (the real sun's is 0.53; larger for verification)",
-       lo_open=True),
+    Parameter("sun.angular_diameter_deg", "deg", 0.53, MIN_SUN_DIAMETER_DEG, 20.0,
+       "angular diameter of the solar disk (the real sun's is 0.53; larger for verification)"),
     Parameter("sky.radiance", "W m^-2 sr^-1 (per nm)", None, 0.0, MAX_SOURCE,
        "sky radiance L0", shape=PER_BAND),
     Parameter("sky.cloud_fraction", "", 0.0, 0.0, 1.0, "cloud fraction of harrison_coombes"),
@@ -170,8 +178,8 @@ PARAMETERS: dict[str, Parameter] = {p.key: p for p in [
        integer=True, shape=PAIR),
     Parameter("camera.filter.width_px", "pixels", None, 0.0, None,
        "width of the pixel filter (default 1 for box, 1.5 for gaussian)", lo_open=True),
-    Parameter("radiometer.half_angle_deg", "deg", 12.9, 0.0, 90.0,
-       "half-angle of a radiance meter's viewing cap", lo_open=True),
+    Parameter("radiometer.half_angle_deg", "deg", 12.9, MIN_HALF_ANGLE_DEG, 90.0,
+       "half-angle of a radiance meter's viewing cap"),
     Parameter("radiometer.polar_bins", "bins", 18, 1, 1_000_000,
        "polar-angle bins of a radiance distribution", integer=True),
     Parameter("radiometer.azimuth_bins", "bins", 24, 1, 1_000_000,

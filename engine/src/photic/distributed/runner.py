@@ -231,9 +231,21 @@ def wait_for_workers(client, address: str, timeout_s: float, say=None) -> None:
 
 
 def _local_cluster(workers: int):
+    """A local cluster whose worker processes ignore SIGINT: a Ctrl-C in the terminal reaches
+    the whole process group, and each worker printed a KeyboardInterrupt traceback while this
+    process (which alone handles it) cancels the units and closes the cluster."""
+    import signal
+    import threading
+
     from distributed import Client, LocalCluster
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=logging.ERROR)
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    try:  # (an ignored signal stays ignored in the processes started meanwhile)
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=logging.ERROR)
+    finally:
+        if main:
+            signal.signal(signal.SIGINT, previous)
     return Client(cluster), cluster
 
 
@@ -253,9 +265,10 @@ class _ItemState:
 
 
 def _write_json(path: Path, doc: dict) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(doc, indent=1, default=str))
-    os.replace(tmp, path)
+    from ..output import atomic_file, json_safe
+    text = json.dumps(json_safe(doc), indent=1, default=str, allow_nan=False)
+    with atomic_file(path, "w", encoding="utf-8") as f:
+        f.write(text)
 
 
 def run_job(job: Job, out=None, *, scheduler: str | None = None, workers: int | None = None,
@@ -386,6 +399,8 @@ def run_job(job: Job, out=None, *, scheduler: str | None = None, workers: int | 
             if write_results:
                 written = write_outputs(out / "results" / st.item.name, result)
                 st.files = [str(p) for p in written["images"] + written["tables"]]
+                if written["failed"]:  # the units stay in the store: a resume writes them
+                    raise OSError("; ".join(str(f) for f in written["failed"]))
             st.status = "done"
             executor.release(st.item)
             _write_json(out / "summary.json", summary())

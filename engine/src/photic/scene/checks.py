@@ -226,6 +226,7 @@ def _check_name(kind: str, index: int, name: Any, seen: dict[str, str]) -> str:
     label = _label(kind, name, index)
     if not isinstance(name, str) or not name:
         raise SceneError(label, "name", f"must be a non-empty string, got {_show(name)}")
+    _check_encodable(label, "name", name)
     if name in seen:
         raise SceneError(label, "name", f"duplicate name: also used by {seen[name]}")
     seen[name] = f"{kind}[{index}]"
@@ -234,6 +235,23 @@ def _check_name(kind: str, index: int, name: Any, seen: dict[str, str]) -> str:
 
 def _label(kind: str, name: Any, index: int) -> str:
     """``water 'sea'``, or ``water[2]`` when the object has no usable name."""
-    return f"{kind} '{name}'" if isinstance(name, str) and name else f"{kind}[{index}]"
+    return f"{kind} '{name}'" if isinstance(name, str) and name and _encodable(name) else f"{kind}[{index}]"
+
+
+def _encodable(text: str) -> bool:
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+def _check_encodable(obj: str, fld: str, text: str) -> None:
+    """Names go into file names, tables and image headers, all UTF-8: a lone surrogate (JSON's
+    "\\ud800") cannot be written, and made the writing fail after the render."""
+    if not _encodable(text):
+        shown = text.encode("utf-8", "backslashreplace").decode("ascii", "backslashreplace")
+        raise SceneError(obj, fld, f"must be text that UTF-8 can hold, got {shown[:60]!r} (a lone "
+                                   f"surrogate, half of a character)")
 
 

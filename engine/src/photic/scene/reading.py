@@ -376,9 +376,16 @@ def _read_sky(d: dict, nbands: int) -> Sky:
     if "radiance" in d:
         return Sky(kind, _per_band("sky", "radiance", d["radiance"], nbands), full, cloud)
     irradiance = _per_band("sky", "irradiance", d["irradiance"], nbands)
-    if kind in ("uniform", "harrison_coombes"):
-        return Sky(kind, irradiance / math.pi, full, cloud)  # E = pi L0 (the table is normalised)
-    return Sky(kind, 3.0 * irradiance / (7.0 * math.pi))  # E = 7 pi L0 / 3
+    # E = pi L0 (uniform; harrison_coombes' table is normalised), or E = 7 pi L0 / 3 (cardioidal)
+    per_radiance = math.pi if kind in ("uniform", "harrison_coombes") else 7.0 * math.pi / 3.0
+    from ..parameters import MAX_SOURCE
+    for i, e in enumerate(np.atleast_1d(np.asarray(irradiance, float)).tolist()):
+        if math.isfinite(e) and e > MAX_SOURCE * per_radiance:  # the radiance it gives is bounded
+            raise SceneError("sky", f"irradiance[{i}]",
+                             f"must be at most {MAX_SOURCE * per_radiance:.6g} for a '{kind}' sky "
+                             f"(its radiance L0 at most {MAX_SOURCE:g}: the image, float32, stays "
+                             f"finite), got {e!r}")
+    return Sky(kind, irradiance / per_radiance, full, cloud)
 
 
 def _read_camera(label: str, d: dict) -> Camera:

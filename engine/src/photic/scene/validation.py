@@ -13,7 +13,7 @@ from .checks import (
     CAMERA_TYPES, FILTER_TYPES, INTEGRATORS, MAX_ARRAY_RADIOMETERS, MAX_COMPONENTS,
     MAX_COORDINATE_M, MAX_DISTRIBUTION_BINS, PHASE_FUNCTION_PARAMS,
     QUANTITIES, SKY_TYPES, SURFACE_KINDS, SceneError, WATER_TYPES, _COORD_TEXT,
-    _DEGENERATE_AREA_FRACTION, _check_choice, _check_name,
+    _DEGENERATE_AREA_FRACTION, _check_choice, _check_encodable, _check_name,
     _check_real, _check_vec3, _entries, _label, _num, _show,
 )
 from .model import (
@@ -30,6 +30,7 @@ from .model import (
 def _validate_scene(s: Scene) -> None:
     if not isinstance(s.name, str):
         raise SceneError("scene", "name", f"must be a string, got {_show(s.name)}")
+    _check_encodable("scene", "name", s.name)
     if not isinstance(s.bands, list) or not s.bands:
         raise SceneError("scene", "bands", "at least one band is required")
     seen: dict[str, str] = {}
@@ -599,10 +600,71 @@ def _validate_surface(label: str, surface: Any) -> None:
         raise SceneError(label, f"surface.triangles[{bad[0]}]",
                          "must face upwards (normal z > 0): the patch is a height field with "
                          "the water below it")
+    _check_patch_covers_period_once(label, v, t, period)
     mean_z = float(np.mean(v[:, 2]))
     if abs(surface.z - mean_z) > 1e-9 * max(1.0, abs(mean_z)):
         raise SceneError(label, "surface.z", f"is {surface.z!r} but must equal the mean height "
                                              f"of the patch vertices, {mean_z!r}")
+
+
+_PATCH_AREA_TOLERANCE = 1e-6  # relative: of the period's area, and of its size for edges
+
+
+def _check_patch_covers_period_once(label: str, v: np.ndarray, t: np.ndarray, period) -> None:
+    """A patch must be a single-valued height field z(x, y) over exactly one period: its
+    (upward) triangles' areas projected on the xy plane sum to Lx Ly, and an edge that belongs
+    to one triangle only lies on the period's border. A hole (less area, or an open edge
+    inside) or a second sheet (twice the area) rendered with exit 0 and Ed 49 % / 26 % of the
+    right value (issue 49)."""
+    lx, ly = float(period[0]), float(period[1])
+    lo = v[:, :2].min(axis=0)
+    area = 0.0
+    for start in range(0, len(t), _MESH_CHECK_BLOCK):
+        tb = t[start:start + _MESH_CHECK_BLOCK]
+        p0, p1, p2 = v[tb[:, 0], :2], v[tb[:, 1], :2], v[tb[:, 2], :2]
+        area += 0.5 * float(np.sum((p1[:, 0] - p0[:, 0]) * (p2[:, 1] - p0[:, 1])
+                                   - (p1[:, 1] - p0[:, 1]) * (p2[:, 0] - p0[:, 0])))
+    cover = area / (lx * ly)
+    if abs(cover - 1.0) > _PATCH_AREA_TOLERANCE:
+        why = ("more than one sheet, or triangles that overlap in x, y" if cover > 1 else
+               "a hole: part of the period has no surface")
+        raise SceneError(label, "surface.triangles",
+                         f"the patch covers its period {cover:.6g} times (its triangles' area "
+                         f"seen from above is {area:.6g} m^2, the period's {lx * ly:.6g} m^2): "
+                         f"{why}; a patch must be a single-valued height field covering "
+                         f"[{_num(lo[0])}, {_num(lo[0] + lx)}] x [{_num(lo[1])}, {_num(lo[1] + ly)}] "
+                         f"m once")
+    # Open edges only on the border (a hole balanced by an overlap elsewhere has the area).
+    ids, n = _merged_vertex_ids(np.asarray(v, np.float64))
+    a = np.concatenate([ids[t[:, 0]], ids[t[:, 1]], ids[t[:, 2]]])
+    b = np.concatenate([ids[t[:, 1]], ids[t[:, 2]], ids[t[:, 0]]])
+    keys = np.minimum(a, b) * n + np.maximum(a, b)
+    uniq, first, counts = np.unique(keys, return_index=True, return_counts=True)
+    if np.any(counts > 2):
+        raise SceneError(label, "surface.triangles",
+                         f"{int(np.count_nonzero(counts > 2))} edge(s) belong to more than two "
+                         f"triangles: the patch is not a single-valued height field (stacked "
+                         f"or folded sheets)")
+    open_ = first[counts == 1] % len(a)  # position of each open edge in (a, b)
+    ends = np.concatenate([a[open_], b[open_]])
+    # (the merged ids' vertices: any vertex of an id has the same position to 1e-8 m)
+    rep = np.empty(n, np.int64)
+    rep[ids] = np.arange(len(ids))
+    xy = v[rep[ends], :2] - lo
+    tol = _PATCH_AREA_TOLERANCE * np.array([lx, ly])
+    half = len(open_)
+    on_side = [np.abs(xy[:, 0]) <= tol[0], np.abs(xy[:, 0] - lx) <= tol[0],
+               np.abs(xy[:, 1]) <= tol[1], np.abs(xy[:, 1] - ly) <= tol[1]]
+    along = np.zeros(half, bool)  # both ends on one side of the period's rectangle
+    for side in on_side:
+        along |= side[:half] & side[half:]
+    inside = ~along
+    if np.any(inside):
+        i = int(np.flatnonzero(inside)[0])
+        raise SceneError(label, "surface.triangles",
+                         f"{int(np.count_nonzero(inside))} edge(s) inside the period belong to "
+                         f"one triangle only (e.g. from {np.round(xy[i] + lo, 9).tolist()} to "
+                         f"{np.round(xy[half + i] + lo, 9).tolist()} m): a hole in the patch")
 
 
 def _validate_sun(sun: Sun, nbands: int) -> None:
