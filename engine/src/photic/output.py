@@ -15,7 +15,6 @@ import numpy as np
 
 from . import __version__
 from .render import COMPONENTS, RenderResult
-from .writing import atomic_file, csv_text  # noqa: F401 (part of this module's API)
 
 # What each component pass holds; the components sum to the total (radiance or value).
 COMPONENT_DESCRIPTIONS = {
@@ -25,6 +24,28 @@ COMPONENT_DESCRIPTIONS = {
     "beam_direct": "refracted sun reaching the radiometer directly, from the beams in closed form",
 }
 IMAGE_COMPONENTS = COMPONENTS[:3]
+
+
+@contextlib.contextmanager
+def atomic_file(path, mode: str = "w", **kw):
+    """Open ``path`` for writing under a temporary name beside it, flushed to the disk and
+    renamed to ``path`` when the block ends without an error (os.replace: atomic on one file
+    system); on an error (a full disk, a name that cannot be encoded) the temporary file is
+    removed and an existing file of that name is left as it was: a reader never sees a
+    truncated file under the final name."""
+    path = Path(path)
+    if path.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "a folder of that name is in the way", str(path))
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, mode, **kw) as f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    finally:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
 
 
 @dataclass
@@ -200,6 +221,21 @@ def _finite_list(a) -> list:
     if np.isfinite(a).all():
         return a.tolist()
     return np.where(np.isfinite(a), a, None).tolist()
+
+
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def csv_text(x):
+    """A CSV cell: '' for a value that is missing (None); text that a spreadsheet would take
+    for a formula (beginning with = + - @, a tab or a carriage return: a radiometer named
+    '=HYPERLINK(...)') with an apostrophe in front, as spreadsheets write it. Numbers as
+    they are."""
+    if x is None:
+        return ""
+    if isinstance(x, str) and x.startswith(_FORMULA_START):
+        return "'" + x
+    return x
 
 
 _cell = csv_text
