@@ -243,7 +243,12 @@ _cell = csv_text
 
 def radiometer_rows(result: RenderResult) -> list[dict]:
     """One row per radiometer, bin and band."""
-    rows = []
+    return list(iter_radiometer_rows(result))
+
+
+def iter_radiometer_rows(result: RenderResult):
+    """The rows of ``radiometer_rows`` one at a time (a radiance distribution of 10^6 bins
+    made a list of dicts of more than 8 GB before the CSV was written)."""
     for r in result.radiometers:
         nbins = r.mean.shape[0]
         for b in range(nbins):
@@ -263,8 +268,7 @@ def radiometer_rows(result: RenderResult) -> list[dict]:
                     ip, ia = divmod(b, r.bins[1])
                     row["polar_deg"] = (ip + 0.5) * 180.0 / r.bins[0]
                     row["azimuth_deg"] = (ia + 0.5) * 360.0 / r.bins[1]
-                rows.append(row)
-    return rows
+                yield row
 
 
 def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = None) -> tuple[Path, Path]:
@@ -272,7 +276,7 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     stem = stem or _safe(result.scene_name)
-    rows = radiometer_rows(result)
+    rows = iter_radiometer_rows(result)
     csv_path = out_dir / f"{stem}_radiometers.csv"
     fields = ["name", "quantity", "x_m", "y_m", "z_m", "medium", "band", "center_nm", "bin",
               "polar_deg", "azimuth_deg", "value", "stderr", "stderr_trusted", "stderr_note",
@@ -300,23 +304,61 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
            "radiometers": [{"name": r.name, "quantity": r.quantity, "position_m": r.position.tolist(),
                             "medium": r.medium, "units": r.units, "samples": r.samples,
                             "bins": list(r.bins) if r.bins else None,
-                            "value": _finite_list(r.mean), "stderr": _finite_list(r.stderr),
-                            "stderr_trusted": _trusted_list(r),
+                            "value": _Array(r.mean), "stderr": _Array(r.stderr),
+                            "stderr_trusted": _Array(_trusted_list(r)),
                             "stderr_notes": list(r.notes) + ([NOT_COMPUTED + " (null)"] if not
                                                              np.isfinite(r.mean).all() or not
                                                              np.isfinite(r.stderr).all() else []),
                             **({} if r.target_error is None else
                                {"target_error": r.target_error, "relative_error": r.relative_error,
                                 "target_reached": r.target_reached}),
-                            "components": {c: {"value": _finite_list(r.components[c][0]),
-                                               "stderr": _finite_list(r.components[c][1])}
+                            "components": {c: {"value": _Array(r.components[c][0]),
+                                               "stderr": _Array(r.components[c][1])}
                                            for c in COMPONENTS if c in r.components}}
                            for r in result.radiometers],
            "components": {c: COMPONENT_DESCRIPTIONS[c] for c in COMPONENTS}}
-    text = json.dumps(json_safe(doc), indent=1, allow_nan=False)
     with atomic_file(json_path, "w", encoding="utf-8") as f:
-        f.write(text)
+        _write_json_arrays(f, doc)
     return csv_path, json_path
+
+
+class _Array:
+    """An array of a JSON table, written one row per line by ``_write_json_arrays`` (a table
+    of 10^6 bins as one json.dumps of nested lists took 6 GB and 150 s)."""
+
+    def __init__(self, a):
+        self.a = a
+
+
+def _write_json_arrays(f, doc) -> None:
+    """``doc`` as indented JSON into ``f``, its _Array values streamed row by row (null for
+    values that are not finite; strict JSON)."""
+    arrays: list = []
+
+    def mark(x):
+        if isinstance(x, _Array):
+            arrays.append(x.a)
+            return f"\x00ARRAY{len(arrays) - 1}\x00"
+        if isinstance(x, dict):
+            return {k: mark(v) for k, v in x.items()}
+        if isinstance(x, (list, tuple)):
+            return [mark(v) for v in x]
+        return x
+
+    text = json.dumps(json_safe(mark(doc)), indent=1, allow_nan=False)
+    parts = re.split(r'"\\u0000ARRAY(\d+)\\u0000"', text)
+    f.write(parts[0])
+    for i in range(1, len(parts), 2):
+        a = arrays[int(parts[i])]
+        if a is None:
+            f.write("null")
+        else:
+            a = np.asarray(a)
+            f.write("[")
+            for j in range(len(a)):
+                f.write(("," if j else "") + "\n  " + json.dumps(json_safe(a[j].tolist()), allow_nan=False))
+            f.write("]")
+        f.write(parts[i + 1])
 
 
 def json_safe(x):

@@ -531,17 +531,23 @@ def _validate_surface(label: str, surface: Any) -> None:
                 raise SceneError(label, f"surface.{attr}", "only allowed for surface kind "
                                                            "'patch'")
     if surface.kind == "waves":
-        from ..waves import SurfaceFoldsError, WaveModel
+        from ..waves import SurfaceFoldsError, WaveModel, WaveNumbersError
 
         if not isinstance(surface.waves, WaveModel):
             raise SceneError(label, "surface.waves", f"a photic.waves.WaveModel is required, "
                                                      f"got {_show(surface.waves)}")
         surface.waves.validate(label, "surface.")
-        if surface.waves.choppiness > 0:  # only a choppy surface can fold over: generated now
-            try:                          # (22 s at 4096 x 4096; a render builds it anyway)
+        nx, ny = surface.waves.resolution
+        # A choppy surface can fold over, and any may overflow: generated now when choppy or
+        # small (22 s at 4096 x 4096, 0.1 s at 256 x 256; a render builds it anyway, cached),
+        # else checked when the render builds it (photic.compile).
+        if surface.waves.choppiness > 0 or nx * ny <= 256 * 256:
+            try:
                 surface.patch()
             except SurfaceFoldsError as exc:
                 raise SceneError(label, "surface.choppiness", str(exc)) from None
+            except WaveNumbersError as exc:
+                raise SceneError(label, "surface", str(exc)) from None
         return
     if surface.kind == "flat":
         return
