@@ -125,6 +125,9 @@ PYBIND11_MODULE(_core, m) {
            "ocean surface, facet_u (two uniforms in [0, 1)) picks the sub-pixel facet of this build.")
         .def_property_readonly("ocean_rough", [](const Scene& s) { return s.ocean_rough; })
         .def_property_readonly("beam_count", [](const Scene& s) { return s.prisms.size(); })
+        .def_property_readonly("beam_grid_size", [](const Scene& s) {
+            return py::make_tuple(s.beam_grid_width(0), s.beam_grid_width(1));
+        }, "(width along x, along y) in m of the water beams' grid, (0, 0) without beams")
         .def_property_readonly("has_flat_beam", [](const Scene& s) { return s.flat_beam; })
         .def("beam_total_flux", &Scene::beam_total_flux)
         .def_property_readonly("air_beam_count", [](const Scene& s) { return s.air_prisms.size(); })

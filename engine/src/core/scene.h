@@ -148,6 +148,12 @@ struct alignas(64) Counters {  // one cache line each: no false sharing between 
 
 class Scene {
 public:
+    // Horizontal size (m) of the water beams' grid along x (axis 0) or y (1), 0 without
+    // beams: a query below a periodic patch visits every period this spans (photic.render
+    // refuses patches so small that this is millions, issue 49).
+    double beam_grid_width(int axis) const {
+        return axis == 0 ? grid_.nx * grid_.cell.x : grid_.ny * grid_.cell.y;
+    }
     Scene();
     ~Scene();
     Scene(const Scene&) = delete;
