@@ -372,8 +372,8 @@ def npz_arrays(owner: str, file_text: str, fields=()) -> tuple[list[np.ndarray],
     if missing:
         got = {}
         try:
-            from photic.render import machine_memory
-            from photic.scene.files import check_npz
+            from photic.safe_io import machine_memory
+            from photic.safe_io import check_npz
             memory = machine_memory()
             try:  # headers first: a cut-short file, or one claiming 256 GiB, says so
                 check_npz(path, {name for name, _ in missing},

@@ -15,6 +15,7 @@ import numpy as np
 
 from . import __version__
 from .render import COMPONENTS, RenderResult
+from .safe_io import atomic_file, csv_text, json_safe  # noqa: F401  (photic.output.* too)
 
 # What each component pass holds; the components sum to the total (radiance or value).
 COMPONENT_DESCRIPTIONS = {
@@ -24,28 +25,6 @@ COMPONENT_DESCRIPTIONS = {
     "beam_direct": "refracted sun reaching the radiometer directly, from the beams in closed form",
 }
 IMAGE_COMPONENTS = COMPONENTS[:3]
-
-
-@contextlib.contextmanager
-def atomic_file(path, mode: str = "w", **kw):
-    """Open ``path`` for writing under a temporary name beside it, flushed to the disk and
-    renamed to ``path`` when the block ends without an error (os.replace: atomic on one file
-    system); on an error (a full disk, a name that cannot be encoded) the temporary file is
-    removed and an existing file of that name is left as it was: a reader never sees a
-    truncated file under the final name."""
-    path = Path(path)
-    if path.is_dir():
-        raise IsADirectoryError(errno.EISDIR, "a folder of that name is in the way", str(path))
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, mode, **kw) as f:
-            yield f
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    finally:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
 
 
 @dataclass
@@ -223,21 +202,6 @@ def _finite_list(a) -> list:
     return np.where(np.isfinite(a), a, None).tolist()
 
 
-_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
-
-
-def csv_text(x):
-    """A CSV cell: '' for a value that is missing (None); text that a spreadsheet would take
-    for a formula (beginning with = + - @, a tab or a carriage return: a radiometer named
-    '=HYPERLINK(...)') with an apostrophe in front, as spreadsheets write it. Numbers as
-    they are."""
-    if x is None:
-        return ""
-    if isinstance(x, str) and x.startswith(_FORMULA_START):
-        return "'" + x
-    return x
-
-
 _cell = csv_text
 
 
@@ -273,6 +237,12 @@ def iter_radiometer_rows(result: RenderResult):
 
 def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = None) -> tuple[Path, Path]:
     """Radiometer values and standard errors as CSV and JSON; returns both paths."""
+    return (write_radiometer_csv(out_dir, result, stem),
+            write_radiometer_json(out_dir, result, stem))
+
+
+def write_radiometer_csv(out_dir, result: RenderResult, stem: str | None = None) -> Path:
+    """The radiometer table as CSV, one row per radiometer, bin and band; returns its path."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     stem = stem or _safe(result.scene_name)
@@ -297,6 +267,14 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
         w.writeheader()
         for row in rows:
             w.writerow({k: _cell(row.get(k, "")) for k in fields})
+    return csv_path
+
+
+def write_radiometer_json(out_dir, result: RenderResult, stem: str | None = None) -> Path:
+    """The radiometer table as JSON (what photic.derived reads); returns its path."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stem = stem or _safe(result.scene_name)
     json_path = out_dir / f"{stem}_radiometers.json"
     doc = {"photic_version": __version__, "scene": result.scene_name,
            "bands": [{"name": b.name, "center_nm": b.center_nm, "width_nm": b.width_nm} for b in result.bands],
@@ -319,7 +297,7 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
            "components": {c: COMPONENT_DESCRIPTIONS[c] for c in COMPONENTS}}
     with atomic_file(json_path, "w", encoding="utf-8") as f:
         _write_json_arrays(f, doc)
-    return csv_path, json_path
+    return json_path
 
 
 class _Array:
@@ -359,24 +337,6 @@ def _write_json_arrays(f, doc) -> None:
                 f.write(("," if j else "") + "\n  " + json.dumps(json_safe(a[j].tolist()), allow_nan=False))
             f.write("]")
         f.write(parts[i + 1])
-
-
-def json_safe(x):
-    """``x`` with every float that is not finite (NaN, inf) as None (null): JSON has no NaN,
-    and a reader that takes Python's 'NaN' would take it for a number."""
-    if isinstance(x, dict):
-        return {k: json_safe(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [json_safe(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return json_safe(x.tolist())
-    if isinstance(x, (float, np.floating)):
-        return float(x) if np.isfinite(x) else None
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, np.bool_):
-        return bool(x)
-    return x
 
 
 def _trusted_list(r):
@@ -436,7 +396,9 @@ def write_outputs(out_dir, result: RenderResult, stem: str | None = None,
     if result.radiometers:
         stem = stem or _safe(result.scene_name)
         attempt("tables", out_dir / f"{stem}_radiometers.csv",
-                lambda d: write_radiometer_tables(d, result, stem))
+                lambda d: write_radiometer_csv(d, result, stem))
+        attempt("tables", out_dir / f"{stem}_radiometers.json",
+                lambda d: write_radiometer_json(d, result, stem))
         attempt("tables", out_dir / f"{stem}_derived.csv",
                 lambda d: write_derived_table(d / f"{stem}_derived.csv", result))
     return written

@@ -200,8 +200,8 @@ def _read_grid(label: str, d: dict, bands: list, base_dir: Path) -> IOPGrid:
         wanted = ["density"] + [f["key"] for f in extra if "key" in f]
         try:
             if path.is_file() and _starts_with(path, b"PK\x03\x04"):  # a .npz: headers first
-                from ..render import machine_memory
-                from .files import check_npz
+                from ..safe_io import machine_memory
+                from ..safe_io import check_npz
                 memory = machine_memory()
                 try:
                     check_npz(path, set(wanted), None if memory is None else int(0.5 * memory))
