@@ -139,3 +139,23 @@ def test_the_tables_of_a_radiance_distribution_are_written_in_bounded_memory(tmp
     np.testing.assert_array_equal(np.array(doc["radiometers"][0]["value"]), r.mean)
     lines = (tmp_path / "dist_radiometers.csv").read_text().count("\n")
     assert lines == nbins * nbands + 2  # the comment line and the header
+
+
+@pytest.mark.parametrize("size, origin, field", [
+    ([1e-300, 2.0, 2.0], [-1, -1, -2], "iop_grid.size[0]"),
+    ([2.0, 2.0, 1e-9], [-1, -1, -2], "iop_grid.size[2]"),
+    ([2.0, 1e-3, 2.0], [-1, 5e5, -2], "iop_grid.size[1]"),
+    ([1e300, 2.0, 2.0], [-1, -1, -2], "iop_grid.size"),
+    ([2.0, 2.0, 2.0], [-1, -1, -2e6], "iop_grid.origin"),
+])
+def test_grid_boxes_too_small_or_too_far_name_the_field(size, origin, field):
+    """A grid of size 1e-300 ended in the core's ValueError ('finite corners with hi > lo')."""
+    d = _grid_scene("x.npz")
+    g = d["water"][0]["iop_grid"]
+    g.pop("file")
+    g.update(density=np.ones((2, 2, 2)).tolist(), size=size, origin=origin)
+    with pytest.raises(SceneError) as e:
+        Scene.from_dict(d)
+    assert e.value.field == field, str(e.value)
+    g.update(size=[2.0, 2.0, 2.0], origin=[-1, -1, -2])
+    render(Scene.from_dict(d), samples=1, radiometer_samples=64)

@@ -463,6 +463,21 @@ def _validate_grid(label: str, grid: IOPGrid, nbands: int) -> None:
     if not np.all(grid.size > 0):
         raise SceneError(label, "iop_grid.size", f"must be > 0 along every axis, got "
                                                  f"{_show(grid.size)}")
+    far = np.maximum(np.abs(grid.origin), np.abs(grid.origin + grid.size))
+    if np.any(far > MAX_COORDINATE_M):
+        raise SceneError(label, "iop_grid.size" if np.all(np.abs(grid.origin) <= MAX_COORDINATE_M)
+                         else "iop_grid.origin", f"the box [origin, origin + size] must lie "
+                                                 f"{_COORD_TEXT}, got origin {_show(grid.origin)}, "
+                                                 f"size {_show(grid.size)}")
+    # The core keeps the box in single precision: a size below about 1e-6 of the corner's
+    # distance from the origin gave corners that coincide (a ValueError from the core, issue 49).
+    small = grid.size < 1e-6 * np.maximum(1.0, far)
+    if np.any(small):
+        axis = int(np.flatnonzero(small)[0])
+        raise SceneError(label, f"iop_grid.size[{axis}]",
+                         f"must be at least {1e-6 * max(1.0, float(far[axis])):.3g} m (1e-6 of the "
+                         f"box's distance from the origin, at least 1 um: the box is kept in single "
+                         f"precision), got {_num(float(grid.size[axis]))}")
     for fld, d in [("iop_grid.density", grid.density)] + [(f"iop_grid.fields[{i}].density", f.density)
                                                           for i, f in enumerate(extra)]:
         if not isinstance(d, np.ndarray) or d.ndim != 3 or d.dtype.kind not in "fiu" or 0 in d.shape:
