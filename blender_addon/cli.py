@@ -81,6 +81,8 @@ def run(args) -> int:
 
 
 def _run(args) -> int:
+    if _STOP["requested"]:  # (while photic loaded: bpy is not worth loading now)
+        return _interrupted_early()
     try:
         import bpy  # noqa: F401  (Blender as a Python module)
     except ImportError as exc:

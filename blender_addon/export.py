@@ -38,47 +38,13 @@ from .export_world import sky
 from .export_radiometers import add_radiometer, add_radiometer_array
 from .export_settings import settings
 from .export_state import ExportInfo, ExportState
-from .export_values import ExportCancelled, ExportError, _obj
+from .export_values import ExportCancelled, ExportError, _obj, non_finite_transform
 from .export_water import add_water_body, add_water_surface
 
 __all__ = ["ExportCancelled", "ExportError", "ExportInfo", "ViewCamera", "engine_error",
            "export_scene"]
 
 CHECK_EVERY = 1000  # instances between cancel checks and progress reports
-
-
-def _transform_parts(obj) -> list[str]:
-    """The fields of an object's transform (Object Properties > Transform, and Delta
-    Transform) that hold a NaN or an infinity."""
-    import math
-    mode = getattr(obj, "rotation_mode", "XYZ")
-    rotation = ("rotation_quaternion" if mode == "QUATERNION" else
-                "rotation_axis_angle" if mode == "AXIS_ANGLE" else "rotation_euler")
-    parts = []
-    for label, attr in (("Location", "location"), ("Rotation", rotation), ("Scale", "scale"),
-                        ("Delta Location", "delta_location"),
-                        ("Delta Rotation", "delta_" + rotation if rotation != "rotation_axis_angle"
-                         else "delta_rotation_euler"), ("Delta Scale", "delta_scale")):
-        values = getattr(obj, attr, None)
-        if values is not None and not all(math.isfinite(float(x)) for x in values):
-            parts.append(f"{label} ({attr})")
-    return parts
-
-
-def non_finite_transform(obj) -> ExportError:
-    """The error for an object whose world matrix holds a NaN or an infinity, naming the
-    transform field that does (or its parent or constraints)."""
-    original = getattr(obj, "original", obj)
-    owner = f"Light '{original.name}'" if getattr(original, "type", "") == "LIGHT" else _obj(original.name)
-    parts = _transform_parts(original)
-    if not parts and getattr(original, "parent", None) is not None:
-        parent_parts = _transform_parts(original.parent)
-        if parent_parts:
-            return ExportError(owner, "Parent", f"'{original.parent.name}' has a transform that is "
-                                                f"not a finite number ({', '.join(parent_parts)})")
-    field = ", ".join(parts) if parts else "Transform (its parent, a constraint or a driver)"
-    return ExportError(owner, field, "is not a finite number (NaN or infinite): the object has "
-                                     "no place, direction or size in the scene")
 
 
 def walk(ex: ExportState) -> None:

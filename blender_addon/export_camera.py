@@ -47,7 +47,7 @@ def camera(ex, view_camera: ViewCamera | None, resolution: tuple[int, int]):
     data = cam.data
     m = np.asarray(cam.matrix_world, float)
     if not np.isfinite(m).all():
-        from .export import non_finite_transform
+        from .export_values import non_finite_transform
         raise non_finite_transform(cam)
     fwd, up = -m[:3, 2], m[:3, 1]
     if not (np.linalg.norm(fwd) > 0 and np.linalg.norm(up) > 0):

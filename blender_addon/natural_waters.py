@@ -372,6 +372,15 @@ def npz_arrays(owner: str, file_text: str, fields=()) -> tuple[list[np.ndarray],
     if missing:
         got = {}
         try:
+            from photic.safe_io import machine_memory
+            from photic.safe_io import check_npz
+            memory = machine_memory()
+            try:  # headers first: a cut-short file, or one claiming 256 GiB, says so
+                check_npz(path, {name for name, _ in missing},
+                          None if memory is None else int(0.5 * memory))
+            except ValueError as exc:
+                if "not a whole .npz" not in str(exc) or path.suffix == ".npz":
+                    raise ExportError(owner, P_GRID_FILE, f"cannot read {path}: {exc}") from None
             with np.load(path, allow_pickle=False) as z:
                 if not hasattr(z, "files"):
                     raise ValueError("not a .npz archive (save it with "

@@ -108,6 +108,9 @@ def enable(blender: str, env: dict, scripts: Path | None) -> None:
             f"import addon_utils\n"
             f"loaded, _ = addon_utils.check('{MODULE}')\n"
             "bpy.ops.wm.save_userpref()\n"
+            "import os\n"
+            "print('PHOTIC_PREFS=' + os.path.join(bpy.utils.user_resource('CONFIG'), "
+            "'userpref.blend'))\n"
             "print('PHOTIC_ENABLED=' + str(loaded))\n"
             "sys.exit(0 if loaded else 1)\n")
     proc = subprocess.run([blender, "-b", "--python-expr", expr], capture_output=True, text=True,
@@ -115,10 +118,15 @@ def enable(blender: str, env: dict, scripts: Path | None) -> None:
     if proc.returncode != 0 or "PHOTIC_ENABLED=True" not in proc.stdout:
         sys.stderr.write(proc.stdout + proc.stderr)
         raise SystemExit(f"enabling {MODULE} in {blender} failed")
+    prefs = "Blender's user configuration folder"
     for line in proc.stdout.splitlines():
         if line.startswith("PHOTIC_NOTE="):
             print("note: " + line[len("PHOTIC_NOTE="):])
-    print(f"enabled {MODULE} and saved the user preferences of {blender}")
+        if line.startswith("PHOTIC_PREFS="):
+            prefs = line[len("PHOTIC_PREFS="):]
+    # (which file: with BLENDER_USER_CONFIG naming a folder that does not exist, Blender
+    # falls back to the user's own ~/.config/blender, issue 49)
+    print(f"enabled {MODULE} and saved the user preferences of {blender} in {prefs}")
 
 
 def main(argv=None) -> int:

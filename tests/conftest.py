@@ -10,6 +10,13 @@ from pathlib import Path
 _PRIVATE = tempfile.mkdtemp(prefix="photic-tests-")
 os.environ.setdefault("PHOTIC_CONFIG_DIR", os.path.join(_PRIVATE, "config"))
 os.environ.setdefault("PHOTIC_CACHE_DIR", os.path.join(_PRIVATE, "cache"))
+# Blender (the bpy module here, and the blender binary the tests start) reads and writes its
+# user configuration in folders of this session, never the user's own ~/.config/blender:
+# made first, as Blender ignores a BLENDER_USER_* folder that does not exist.
+for _name, _sub in (("BLENDER_USER_CONFIG", "blender/config"), ("BLENDER_USER_SCRIPTS", "blender/scripts"),
+                    ("BLENDER_USER_DATAFILES", "blender/datafiles")):
+    os.makedirs(os.path.join(_PRIVATE, _sub), exist_ok=True)
+    os.environ.setdefault(_name, os.path.join(_PRIVATE, _sub))
 
 try:
     import photic  # noqa: F401

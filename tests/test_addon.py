@@ -26,6 +26,7 @@ from photic_blender import export, final_render  # noqa: E402
 from photic_blender.batch import ensure_registered, render_blend  # noqa: E402
 
 import photic  # noqa: E402
+import photic.output  # noqa: E402,F401  (as the add-on's engine loader imports it)
 
 
 @pytest.fixture
@@ -1042,6 +1043,26 @@ def test_a_cancelled_render_writes_no_empty_tables(empty, tmp_path):
     empty.render.filepath = str(tmp_path / "part_####")
     paths = write_radiometer_results(photic, done, empty, lambda lvl, t: None)
     assert Path(paths[0]).read_text().startswith("# CANCELLED")
+
+
+def test_a_table_that_cannot_be_written_is_kept_elsewhere_and_said(empty, tmp_path):
+    """Issue 49, kind 2: a folder where the JSON table goes: the CSV and derived tables are
+    written, the JSON into a rescue folder, and the warning says where."""
+    from photic_blender.final_render import write_radiometer_results
+    radiometer_only_file(tmp_path, empty)
+    scene = export_current()[0]
+    scene.cameras = []
+    done = Renderer(scene, radiometer_samples=1024).run()
+    empty.render.filepath = str(tmp_path / "out" / "t_####")
+    from photic_blender.final_render import table_stem
+    out_dir, stem = table_stem(empty)
+    (Path(out_dir) / f"{stem}_radiometers.json").mkdir(parents=True)
+    messages = []
+    paths = write_radiometer_results(photic, done, empty, lambda lvl, t: messages.append((lvl, t)))
+    assert any(p.endswith("_radiometers.csv") for p in paths)
+    kept = [p for p in paths if "photic-rescue-" in p]
+    assert len(kept) == 1 and kept[0].endswith(f"{stem}_radiometers.json") and Path(kept[0]).is_file()
+    assert any(lvl == "WARNING" and f"kept in {kept[0]}" in text for lvl, text in messages), messages
 
 
 def test_noise_figure_matches_the_measured_error():

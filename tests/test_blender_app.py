@@ -33,10 +33,18 @@ LOW_SAMPLES = ("import bpy; s = bpy.context.scene; s.photic.samples = 2; "
 
 
 def blender_env(base: Path) -> dict:
+    """The environment of a Blender isolated from the user's own: its config, scripts and
+    data folders under ``base``, made first (Blender ignores a BLENDER_USER_* folder that does
+    not exist and falls back to ~/.config/blender: the test's preferences landed there), and
+    HOME and XDG_CONFIG_HOME there too, so that nothing else is read from the user's."""
     env = dict(os.environ)
-    env["BLENDER_USER_CONFIG"] = str(base / "config")
-    env["BLENDER_USER_SCRIPTS"] = str(base / "scripts")
-    env["BLENDER_USER_DATAFILES"] = str(base / "datafiles")
+    for name, sub in (("BLENDER_USER_CONFIG", "config"), ("BLENDER_USER_SCRIPTS", "scripts"),
+                      ("BLENDER_USER_DATAFILES", "datafiles")):
+        (base / sub).mkdir(parents=True, exist_ok=True)
+        env[name] = str(base / sub)
+    (base / "home").mkdir(exist_ok=True)
+    env["HOME"] = str(base / "home")
+    env["XDG_CONFIG_HOME"] = str(base / "home" / ".config")
     env.pop("PHOTIC_SITE_PACKAGES", None)  # the installed site_packages.txt must be enough
     return env
 
@@ -101,10 +109,19 @@ def test_install_enable_saves_prefs_then_plain_render(tmp_path):
     """``--enable`` saves the preferences; later runs need no ``--addons`` and no env var for
     the scripts directory (it is recorded in the preferences)."""
     env = blender_env(tmp_path)
+    # A user configuration of this Blender in the (test's) home: the one the preferences
+    # landed in before (issue 49); it must stay untouched.
+    import re
+    version = re.search(r"Blender (\d+\.\d+)", run([BLENDER, "--version"], env).stdout).group(1)
+    user_config = Path(env["XDG_CONFIG_HOME"]) / "blender" / version / "config"
+    user_config.mkdir(parents=True)
     proc = run([sys.executable, str(INSTALL), "--scripts", str(tmp_path / "scripts"), "--enable"],
                env)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert (tmp_path / "config" / "userpref.blend").is_file()
+    saved = str(tmp_path / "config" / "userpref.blend")
+    assert f"saved the user preferences of {BLENDER} in {saved}" in proc.stdout, proc.stdout
+    assert list(user_config.iterdir()) == []
     env.pop("BLENDER_USER_SCRIPTS")
     out = tmp_path / "out"
     proc = run([BLENDER, "--background", str(BLEND), "--python-expr", LOW_SAMPLES,

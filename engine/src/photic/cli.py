@@ -541,7 +541,8 @@ def main(argv=None) -> int:
     if argv[:1] == ["blend"]:  # everything after it is photic-blend's (--help included)
         if threading.current_thread() is not threading.main_thread():
             return cmd_blend(argparse.Namespace(args=argv[1:]))
-        EARLY_INTERRUPT["requested"] = False
+        import photic  # (python -m photic records a Ctrl-C while it loads there)
+        EARLY_INTERRUPT["requested"] = bool(getattr(photic, "_interrupted_while_loading", False))
         previous = signal.signal(signal.SIGINT, _early_sigint)
         try:
             return cmd_blend(argparse.Namespace(args=argv[1:]))

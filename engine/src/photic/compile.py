@@ -10,7 +10,7 @@ import numpy as np
 
 from . import _core
 from .phase import make_core_phase
-from .scene import IOPGrid, IOPProfile, Scene
+from .scene import IOPGrid, IOPProfile, Scene, SceneError
 
 QUANTITY_CODES = {"Ed": 0, "Eu": 1, "Eo": 2, "Eod": 3, "Eou": 4,
                   "radiance": 5, "radiance_distribution": 6}
@@ -162,7 +162,11 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
                 core.set_ocean_flat(wi, float(surf.z))
                 zmean = float(surf.z)
             else:  # a patch, given or generated from a wave model
-                mesh, period, normals = surf.patch()
+                from .waves import SurfaceFoldsError, WaveNumbersError
+                try:
+                    mesh, period, normals = surf.patch()
+                except (SurfaceFoldsError, WaveNumbersError) as exc:
+                    raise SceneError(f"water '{w.name}'", "surface", str(exc)) from None
                 v = np.asarray(mesh.vertices, np.float64)
                 tri = _oriented_up(v, np.asarray(mesh.triangles, np.int64))
                 zmean = float(surf.z)

@@ -497,7 +497,7 @@ def derived_rows(derived: list[Derived], bands) -> list[dict]:
 
 def write_derived_csv(path, derived: list[Derived], bands, header: str = "") -> Path:
     """The rows of ``derived_rows`` as CSV, after a '#' comment line."""
-    from .output import atomic_file, csv_text
+    from .safe_io import atomic_file, csv_text
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_file(path, "w", newline="", encoding="utf-8") as f:

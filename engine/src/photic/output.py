@@ -15,6 +15,7 @@ import numpy as np
 
 from . import __version__
 from .render import COMPONENTS, RenderResult
+from .safe_io import atomic_file, csv_text, json_safe  # noqa: F401  (photic.output.* too)
 
 # What each component pass holds; the components sum to the total (radiance or value).
 COMPONENT_DESCRIPTIONS = {
@@ -24,28 +25,6 @@ COMPONENT_DESCRIPTIONS = {
     "beam_direct": "refracted sun reaching the radiometer directly, from the beams in closed form",
 }
 IMAGE_COMPONENTS = COMPONENTS[:3]
-
-
-@contextlib.contextmanager
-def atomic_file(path, mode: str = "w", **kw):
-    """Open ``path`` for writing under a temporary name beside it, flushed to the disk and
-    renamed to ``path`` when the block ends without an error (os.replace: atomic on one file
-    system); on an error (a full disk, a name that cannot be encoded) the temporary file is
-    removed and an existing file of that name is left as it was: a reader never sees a
-    truncated file under the final name."""
-    path = Path(path)
-    if path.is_dir():
-        raise IsADirectoryError(errno.EISDIR, "a folder of that name is in the way", str(path))
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, mode, **kw) as f:
-            yield f
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    finally:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
 
 
 @dataclass
@@ -223,27 +202,17 @@ def _finite_list(a) -> list:
     return np.where(np.isfinite(a), a, None).tolist()
 
 
-_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
-
-
-def csv_text(x):
-    """A CSV cell: '' for a value that is missing (None); text that a spreadsheet would take
-    for a formula (beginning with = + - @, a tab or a carriage return: a radiometer named
-    '=HYPERLINK(...)') with an apostrophe in front, as spreadsheets write it. Numbers as
-    they are."""
-    if x is None:
-        return ""
-    if isinstance(x, str) and x.startswith(_FORMULA_START):
-        return "'" + x
-    return x
-
-
 _cell = csv_text
 
 
 def radiometer_rows(result: RenderResult) -> list[dict]:
     """One row per radiometer, bin and band."""
-    rows = []
+    return list(iter_radiometer_rows(result))
+
+
+def iter_radiometer_rows(result: RenderResult):
+    """The rows of ``radiometer_rows`` one at a time (a radiance distribution of 10^6 bins
+    made a list of dicts of more than 8 GB before the CSV was written)."""
     for r in result.radiometers:
         nbins = r.mean.shape[0]
         for b in range(nbins):
@@ -263,16 +232,21 @@ def radiometer_rows(result: RenderResult) -> list[dict]:
                     ip, ia = divmod(b, r.bins[1])
                     row["polar_deg"] = (ip + 0.5) * 180.0 / r.bins[0]
                     row["azimuth_deg"] = (ia + 0.5) * 360.0 / r.bins[1]
-                rows.append(row)
-    return rows
+                yield row
 
 
 def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = None) -> tuple[Path, Path]:
     """Radiometer values and standard errors as CSV and JSON; returns both paths."""
+    return (write_radiometer_csv(out_dir, result, stem),
+            write_radiometer_json(out_dir, result, stem))
+
+
+def write_radiometer_csv(out_dir, result: RenderResult, stem: str | None = None) -> Path:
+    """The radiometer table as CSV, one row per radiometer, bin and band; returns its path."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     stem = stem or _safe(result.scene_name)
-    rows = radiometer_rows(result)
+    rows = iter_radiometer_rows(result)
     csv_path = out_dir / f"{stem}_radiometers.csv"
     fields = ["name", "quantity", "x_m", "y_m", "z_m", "medium", "band", "center_nm", "bin",
               "polar_deg", "azimuth_deg", "value", "stderr", "stderr_trusted", "stderr_note",
@@ -293,6 +267,14 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
         w.writeheader()
         for row in rows:
             w.writerow({k: _cell(row.get(k, "")) for k in fields})
+    return csv_path
+
+
+def write_radiometer_json(out_dir, result: RenderResult, stem: str | None = None) -> Path:
+    """The radiometer table as JSON (what photic.derived reads); returns its path."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stem = stem or _safe(result.scene_name)
     json_path = out_dir / f"{stem}_radiometers.json"
     doc = {"photic_version": __version__, "scene": result.scene_name,
            "bands": [{"name": b.name, "center_nm": b.center_nm, "width_nm": b.width_nm} for b in result.bands],
@@ -300,41 +282,61 @@ def write_radiometer_tables(out_dir, result: RenderResult, stem: str | None = No
            "radiometers": [{"name": r.name, "quantity": r.quantity, "position_m": r.position.tolist(),
                             "medium": r.medium, "units": r.units, "samples": r.samples,
                             "bins": list(r.bins) if r.bins else None,
-                            "value": _finite_list(r.mean), "stderr": _finite_list(r.stderr),
-                            "stderr_trusted": _trusted_list(r),
+                            "value": _Array(r.mean), "stderr": _Array(r.stderr),
+                            "stderr_trusted": _Array(_trusted_list(r)),
                             "stderr_notes": list(r.notes) + ([NOT_COMPUTED + " (null)"] if not
                                                              np.isfinite(r.mean).all() or not
                                                              np.isfinite(r.stderr).all() else []),
                             **({} if r.target_error is None else
                                {"target_error": r.target_error, "relative_error": r.relative_error,
                                 "target_reached": r.target_reached}),
-                            "components": {c: {"value": _finite_list(r.components[c][0]),
-                                               "stderr": _finite_list(r.components[c][1])}
+                            "components": {c: {"value": _Array(r.components[c][0]),
+                                               "stderr": _Array(r.components[c][1])}
                                            for c in COMPONENTS if c in r.components}}
                            for r in result.radiometers],
            "components": {c: COMPONENT_DESCRIPTIONS[c] for c in COMPONENTS}}
-    text = json.dumps(json_safe(doc), indent=1, allow_nan=False)
     with atomic_file(json_path, "w", encoding="utf-8") as f:
-        f.write(text)
-    return csv_path, json_path
+        _write_json_arrays(f, doc)
+    return json_path
 
 
-def json_safe(x):
-    """``x`` with every float that is not finite (NaN, inf) as None (null): JSON has no NaN,
-    and a reader that takes Python's 'NaN' would take it for a number."""
-    if isinstance(x, dict):
-        return {k: json_safe(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [json_safe(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return json_safe(x.tolist())
-    if isinstance(x, (float, np.floating)):
-        return float(x) if np.isfinite(x) else None
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, np.bool_):
-        return bool(x)
-    return x
+class _Array:
+    """An array of a JSON table, written one row per line by ``_write_json_arrays`` (a table
+    of 10^6 bins as one json.dumps of nested lists took 6 GB and 150 s)."""
+
+    def __init__(self, a):
+        self.a = a
+
+
+def _write_json_arrays(f, doc) -> None:
+    """``doc`` as indented JSON into ``f``, its _Array values streamed row by row (null for
+    values that are not finite; strict JSON)."""
+    arrays: list = []
+
+    def mark(x):
+        if isinstance(x, _Array):
+            arrays.append(x.a)
+            return f"\x00ARRAY{len(arrays) - 1}\x00"
+        if isinstance(x, dict):
+            return {k: mark(v) for k, v in x.items()}
+        if isinstance(x, (list, tuple)):
+            return [mark(v) for v in x]
+        return x
+
+    text = json.dumps(json_safe(mark(doc)), indent=1, allow_nan=False)
+    parts = re.split(r'"\\u0000ARRAY(\d+)\\u0000"', text)
+    f.write(parts[0])
+    for i in range(1, len(parts), 2):
+        a = arrays[int(parts[i])]
+        if a is None:
+            f.write("null")
+        else:
+            a = np.asarray(a)
+            f.write("[")
+            for j in range(len(a)):
+                f.write(("," if j else "") + "\n  " + json.dumps(json_safe(a[j].tolist()), allow_nan=False))
+            f.write("]")
+        f.write(parts[i + 1])
 
 
 def _trusted_list(r):
@@ -394,7 +396,9 @@ def write_outputs(out_dir, result: RenderResult, stem: str | None = None,
     if result.radiometers:
         stem = stem or _safe(result.scene_name)
         attempt("tables", out_dir / f"{stem}_radiometers.csv",
-                lambda d: write_radiometer_tables(d, result, stem))
+                lambda d: write_radiometer_csv(d, result, stem))
+        attempt("tables", out_dir / f"{stem}_radiometers.json",
+                lambda d: write_radiometer_json(d, result, stem))
         attempt("tables", out_dir / f"{stem}_derived.csv",
                 lambda d: write_derived_table(d / f"{stem}_derived.csv", result))
     return written

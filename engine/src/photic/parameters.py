@@ -140,8 +140,9 @@ PARAMETERS: dict[str, Parameter] = {p.key: p for p in [
        shape=PAIR),
     Parameter("surface.roughness.wind_speed", "m/s", None, 0.0, 50.0,
        "wind speed of the Cox-Munk slope variance (its fit covers 0 to 50 m/s)"),
-    Parameter("surface.wind_speed", "m/s", 5.0, 0.0, None,
-       "wind speed U10 of a wave model (> 0 for the wind spectra)"),
+    # (wave models: beyond these the spectra's formulas overflow, issue 49)
+    Parameter("surface.wind_speed", "m/s", 5.0, 0.0, 100.0,
+       "wind speed U10 of a wave model (> 0 for the wind spectra; at most 100, beyond any storm)"),
     Parameter("surface.patch_size_m", "m", [50.0, 50.0], 1e-3, _XY,
        "period [Lx, Ly] of a wave patch", shape=PAIR),
     Parameter("surface.resolution", "grid points", [64, 64], 2, 4096,
@@ -150,10 +151,11 @@ PARAMETERS: dict[str, Parameter] = {p.key: p for p in [
        integer=True),
     Parameter("surface.choppiness", "", 0.0, 0.0, None,
        "horizontal displacement factor lambda of the waves; must not fold the surface"),
-    Parameter("surface.water_depth_m", "m", None, 0.0, None,
-       "water depth of the waves' dispersion relation; absent for deep water", lo_open=True),
+    Parameter("surface.water_depth_m", "m", None, 1e-3, None,
+       "water depth of the waves' dispersion relation (at least 1 mm); absent for deep water"),
     Parameter("surface.fetch_m", "m", None, 0.0, None, "fetch of a JONSWAP sea", lo_open=True),
-    Parameter("surface.gamma", "", 3.3, 1.0, None, "JONSWAP peak enhancement (1: Pierson-Moskowitz)"),
+    Parameter("surface.gamma", "", 3.3, 1.0, 20.0, "JONSWAP peak enhancement (1: Pierson-Moskowitz; "
+       "measured 1 to 7)"),
     Parameter("surface.spreading_s", "", 10.0, 0.0, 1000.0, "exponent s of cos2s spreading",
        lo_open=True),
     # light

@@ -278,12 +278,7 @@ def radiometer_passes(samples: int, paired: bool) -> list[tuple[int, int]]:
 MEMORY_SHARE = 0.8  # of the machine's memory a render may plan to use
 
 
-def machine_memory() -> int | None:
-    """Bytes of physical memory (None where unknown)."""
-    try:
-        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
-    except (ValueError, OSError, AttributeError):
-        return None
+from .safe_io import machine_memory  # noqa: E402  (photic.render.machine_memory too)
 
 
 def render_memory(scene: Scene) -> dict:

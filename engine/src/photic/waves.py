@@ -63,6 +63,7 @@ __all__ = [
     "amplitudes", "generate", "evaluate", "height_variance", "slope_variance",
     "resolved_slope_variance", "subpixel_slope_variance", "patch_mesh", "surface_patch",
     "SurfaceFoldsError",
+    "WaveNumbersError",
 ]
 
 #: Standard gravity (m s^-2).
@@ -75,6 +76,11 @@ SPREADINGS = ("cos2s", "cos2")
 PM_ALPHA = 8.1e-3        # Phillips constant of Pierson-Moskowitz (and of "phillips")
 PM_BETA = 0.74
 U19_5_PER_U10 = 1.026    # Stewart 2008, sec. 16.5
+
+
+class WaveNumbersError(ValueError):
+    """A wave model whose patch is not made of finite numbers (parameters beyond what the
+    spectrum's formulas hold)."""
 
 
 class SurfaceFoldsError(ValueError):
@@ -652,7 +658,21 @@ def surface_patch(model: WaveModel, z: float = 0.0) -> tuple[np.ndarray, np.ndar
 
     Two entries: a scene's validation and compilation reuse its patch, while a long-lived
     worker rendering many time steps does not hold many 2048^2 patches (about 0.4 GB each)."""
-    out = patch_mesh(generate(model), z)
+    try:
+        with np.errstate(all="ignore"):
+            out = patch_mesh(generate(model), z)
+    except (ArithmeticError, ValueError) as exc:
+        if isinstance(exc, SurfaceFoldsError):
+            raise
+        raise WaveNumbersError(f"the wave model's numbers overflow ({type(exc).__name__}: {exc})") from None
+    vertices, _, normals = out
+    heights = vertices[:, 2] - z
+    if not (np.isfinite(heights).all() and np.isfinite(normals).all()) or \
+            float(np.abs(heights).max()) > 1e6 or not (normals[:, 2] > 0).all():
+        raise WaveNumbersError("the wave model gives heights or slopes that are not finite "
+                               "numbers, higher than 1e6 m or overhanging (its wind_speed, "
+                               "gamma, fetch_m, water_depth_m or choppiness is beyond what the "
+                               "spectrum's formulas hold)")
     for a in out:
         a.flags.writeable = False
     return out

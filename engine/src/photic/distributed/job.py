@@ -35,6 +35,17 @@ class JobError(ValueError):
     """An invalid job file: says which entry and why."""
 
 
+#: Items of one job at most (inputs x frames x cases): each is a render; a sweep or a frame
+#: range of 1e9 grew to the memory limit before anything was checked (issue 49).
+MAX_ITEMS = 100_000
+
+
+def _too_many(count: int, what: str) -> None:
+    if count > MAX_ITEMS:
+        raise JobError(f"{what} gives {count:,} items; a job has at most {MAX_ITEMS:,} (each item "
+                       f"is a render): split it into several jobs")
+
+
 @dataclass
 class Item:
     """One scene to render: an input at one frame with one case of the swept parameters."""
@@ -112,6 +123,12 @@ def _cases(doc: dict) -> list[dict]:
     if not isinstance(sweep, dict) or not all(isinstance(v, list) and v for v in sweep.values()):
         raise JobError("'sweep' must map override paths to non-empty lists of values")
     keys = list(sweep)
+    extra_n = len(doc.get("cases") or [{}]) if isinstance(doc.get("cases") or [{}], list) else 1
+    count = extra_n
+    for k in keys:
+        count *= len(sweep[k])
+    _too_many(count, "'sweep' x 'cases' (" + " x ".join(f"{len(sweep[k]):,}" for k in keys) +
+              (f" x {extra_n:,}" if extra_n != 1 else "") + ")")
     product = [dict(zip(keys, values)) for values in itertools.product(*(sweep[k] for k in keys))]
     extra = doc.get("cases") or [{}]
     if not isinstance(extra, list) or not all(isinstance(c, dict) for c in extra):
@@ -150,10 +167,15 @@ def _frames(spec: Any, where: str) -> list[int] | None:
     if isinstance(spec, list) and spec and all(isinstance(f, int) and not isinstance(f, bool) for f in spec):
         return list(spec)
     if isinstance(spec, dict) and set(spec) <= {"start", "end", "step"} and "start" in spec and "end" in spec:
+        if not all(isinstance(spec.get(k, 1), int) and not isinstance(spec.get(k, 1), bool)
+                   for k in ("start", "end", "step")):
+            raise JobError(f"{where}: 'frames' start, end and step must be integers")
         step = int(spec.get("step", 1))
         if step < 1:
             raise JobError(f"{where}: frame step must be >= 1")
-        return list(range(int(spec["start"]), int(spec["end"]) + 1, step))
+        frames = range(int(spec["start"]), int(spec["end"]) + 1, step)
+        _too_many(len(frames), f"{where}: 'frames' {spec['start']}..{spec['end']}")
+        return list(frames)
     raise JobError(f"{where}: 'frames' must be a list of integers or {{\"start\", \"end\", \"step\"}}")
 
 
@@ -274,9 +296,12 @@ def parse_job(doc: dict, base: Path | str = ".", path: Path | None = None, expor
               retries=_positive_int(doc, "retries", 2, lo=0),
               out=(base / doc["out"]) if doc.get("out") else None, path=path, doc=doc)
     names: dict[str, int] = {}
+    if isinstance(inputs, list):
+        _too_many(len(inputs) * len(cases), f"{len(inputs):,} inputs x {len(cases):,} cases")
     for i, entry in enumerate(inputs):
         for stem, source, frame, scene_doc, scene_base in _input_docs(entry, base, doc.get("frames"), i,
                                                                      export_blend):
+            _too_many(len(job.items) + len(cases), "the inputs, frames and cases together")
             for case in cases:
                 d = copy.deepcopy(scene_doc)
                 for key, value in {**overrides, **case}.items():

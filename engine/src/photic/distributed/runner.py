@@ -265,7 +265,7 @@ class _ItemState:
 
 
 def _write_json(path: Path, doc: dict) -> None:
-    from ..output import atomic_file, json_safe
+    from ..safe_io import atomic_file, json_safe
     text = json.dumps(json_safe(doc), indent=1, default=str, allow_nan=False)
     with atomic_file(path, "w", encoding="utf-8") as f:
         f.write(text)

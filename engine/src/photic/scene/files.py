@@ -57,7 +57,8 @@ def _no_duplicate_keys(pairs: list) -> dict:
 
 def save_scene(scene: Scene, path: str | Path) -> None:
     """Write a scene as JSON (meshes inline)."""
-    from ..output import atomic_file
+    from ..safe_io import atomic_file
     text = _dumps(scene.to_dict()) + "\n"
     with atomic_file(path, "w", encoding="utf-8") as f:  # never a truncated scene file
         f.write(text)
+

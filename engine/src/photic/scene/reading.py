@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import gc
 import math
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -198,6 +199,14 @@ def _read_grid(label: str, d: dict, bands: list, base_dir: Path) -> IOPGrid:
         path = base_dir / d["file"]
         wanted = ["density"] + [f["key"] for f in extra if "key" in f]
         try:
+            if path.is_file() and _starts_with(path, b"PK\x03\x04"):  # a .npz: headers first
+                from ..safe_io import machine_memory
+                from ..safe_io import check_npz
+                memory = machine_memory()
+                try:
+                    check_npz(path, set(wanted), None if memory is None else int(0.5 * memory))
+                except ValueError as e:
+                    raise SceneError(label, "iop_grid.file", f"{path}: {e}") from None
             z = np.load(path, allow_pickle=False)
             if not isinstance(z, np.lib.npyio.NpzFile):
                 raise SceneError(label, "iop_grid.file", f"{path} holds one array (a .npy): a .npz "
@@ -210,7 +219,9 @@ def _read_grid(label: str, d: dict, bands: list, base_dir: Path) -> IOPGrid:
                         raise SceneError(label, fld, f"{path} has no array {key!r} "
                                                      f"(has: {', '.join(z.files) or 'none'})")
                     arrays[key] = np.asarray(z[key])
-        except (OSError, ValueError, EOFError) as e:
+        except SceneError:
+            raise
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:
             raise SceneError(label, "iop_grid.file", f"cannot read {path}: {e}") from None
         density = arrays["density"]
         file = str(path.resolve())
@@ -498,3 +509,8 @@ def scene_from_dict(cls, d: dict, base_dir: str | Path | None = None) -> "Scene"
     scene = _build_scene(d, Path(base_dir) if base_dir is not None else Path.cwd())
     scene.validate()
     return scene
+
+
+def _starts_with(path: Path, magic: bytes) -> bool:
+    with open(path, "rb") as f:
+        return f.read(len(magic)) == magic

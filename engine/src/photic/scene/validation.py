@@ -491,6 +491,21 @@ def _validate_grid(label: str, grid: IOPGrid, nbands: int) -> None:
     if not np.all(grid.size > 0):
         raise SceneError(label, "iop_grid.size", f"must be > 0 along every axis, got "
                                                  f"{_show(grid.size)}")
+    far = np.maximum(np.abs(grid.origin), np.abs(grid.origin + grid.size))
+    if np.any(far > MAX_COORDINATE_M):
+        raise SceneError(label, "iop_grid.size" if np.all(np.abs(grid.origin) <= MAX_COORDINATE_M)
+                         else "iop_grid.origin", f"the box [origin, origin + size] must lie "
+                                                 f"{_COORD_TEXT}, got origin {_show(grid.origin)}, "
+                                                 f"size {_show(grid.size)}")
+    # The core keeps the box in single precision: a size below about 1e-6 of the corner's
+    # distance from the origin gave corners that coincide (a ValueError from the core, issue 49).
+    small = grid.size < 1e-6 * np.maximum(1.0, far)
+    if np.any(small):
+        axis = int(np.flatnonzero(small)[0])
+        raise SceneError(label, f"iop_grid.size[{axis}]",
+                         f"must be at least {1e-6 * max(1.0, float(far[axis])):.3g} m (1e-6 of the "
+                         f"box's distance from the origin, at least 1 um: the box is kept in single "
+                         f"precision), got {_num(float(grid.size[axis]))}")
     for fld, d in [("iop_grid.density", grid.density)] + [(f"iop_grid.fields[{i}].density", f.density)
                                                           for i, f in enumerate(extra)]:
         if not isinstance(d, np.ndarray) or d.ndim != 3 or d.dtype.kind not in "fiu" or 0 in d.shape:
@@ -559,17 +574,23 @@ def _validate_surface(label: str, surface: Any) -> None:
                 raise SceneError(label, f"surface.{attr}", "only allowed for surface kind "
                                                            "'patch'")
     if surface.kind == "waves":
-        from ..waves import SurfaceFoldsError, WaveModel
+        from ..waves import SurfaceFoldsError, WaveModel, WaveNumbersError
 
         if not isinstance(surface.waves, WaveModel):
             raise SceneError(label, "surface.waves", f"a photic.waves.WaveModel is required, "
                                                      f"got {_show(surface.waves)}")
         surface.waves.validate(label, "surface.")
-        if surface.waves.choppiness > 0:  # only a choppy surface can fold over: generated now
-            try:                          # (22 s at 4096 x 4096; a render builds it anyway)
+        nx, ny = surface.waves.resolution
+        # A choppy surface can fold over, and any may overflow: generated now when choppy or
+        # small (22 s at 4096 x 4096, 0.1 s at 256 x 256; a render builds it anyway, cached),
+        # else checked when the render builds it (photic.compile).
+        if surface.waves.choppiness > 0 or nx * ny <= 256 * 256:
+            try:
                 surface.patch()
             except SurfaceFoldsError as exc:
                 raise SceneError(label, "surface.choppiness", str(exc)) from None
+            except WaveNumbersError as exc:
+                raise SceneError(label, "surface", str(exc)) from None
         return
     if surface.kind == "flat":
         return
