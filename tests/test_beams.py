@@ -243,3 +243,27 @@ def test_lookups_find_every_beam_beside_the_pool_walls():
             np.testing.assert_allclose([sum(b[1][0] for b in g) for g in got], e0, rtol=1e-12, atol=0)
             checked += int(count.sum())
     assert checked > 200
+
+
+def test_a_cancelled_beam_build_leaves_no_beams_and_the_next_build_is_whole():
+    """cancel() stops a beam build (a 1024 x 1024 patch's first build takes seconds; the checks
+    come per block of vertices, per source triangle and per 4,096 prisms), leaving no beams and
+    nothing half-built: after reset_cancel the same build gives what a fresh core gives."""
+    from photic import bench_waves
+    from photic.render import sun_direction
+
+    m = next(m for m in bench_waves.WAVE_FAMILY if m.name == "issue")
+    scene = bench_waves.wave_member_scene(m, "waves", 64)
+    d = tuple(sun_direction(scene, 0.5, 0.5))
+    core = compile_scene(scene, seed=7, hybrid=True, forward_cone_deg=0.0)
+    core.cancel()
+    core.build_beams(d, 2)
+    assert core.beam_count == 0 and core.beam_total_flux() == 0.0 and not core.beam_grid_shared
+    core.reset_cancel()
+    core.build_beams(d, 2)
+    fresh = compile_scene(scene, seed=7, hybrid=True, forward_cone_deg=0.0)
+    fresh.build_beams(d, 2)
+    assert core.beam_count == fresh.beam_count > 0 and core.beam_grid_shared == fresh.beam_grid_shared
+    assert core.beam_total_flux() == fresh.beam_total_flux()
+    x = (3.0, 4.0, -2.0)
+    assert [b for b in core.beams_at(x, 0)] == [b for b in fresh.beams_at(x, 0)]

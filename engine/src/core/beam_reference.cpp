@@ -116,6 +116,7 @@ void Scene::build_grid_reference(const Spectrum& e_sun, int threads) {
     ref.sy = sy;
     ref.prisms.resize(centre.size());
     for (size_t i = 0; i < centre.size(); ++i) {
+        if ((i & 4095) == 0 && cancel_flag.load(std::memory_order_relaxed)) throw BuildCancelled{};
         const BeamPrism& P = centre[i];
         const PrismKey& K = keys[i];
         ReferencePrism& R = ref.prisms[i];
@@ -150,6 +151,7 @@ void Scene::build_grid_reference(const Spectrum& e_sun, int threads) {
         double px, py;
         if (!reference_shear(dir, &px, &py)) return;
         for (size_t i = 0; i < centre.size(); ++i) {
+            if ((i & 4095) == 0 && cancel_flag.load(std::memory_order_relaxed)) throw BuildCancelled{};
             ReferencePrism& R = ref.prisms[i];
             const BeamPrism& P = centre[i];
             PrismKey Q = keys[i];  // the probe's key
@@ -188,7 +190,7 @@ void Scene::build_grid_reference(const Spectrum& e_sun, int threads) {
         ma[i] = R.margin_a + 1e-9 * extent_;
         mg[i] = R.margin_g * (1.0 + 1e-9);
     }
-    build_grid(centre, keys, &ref.grid, ma.data(), mg.data());
+    build_grid(centre, keys, &ref.grid, ma.data(), mg.data(), &cancel_flag);
     ref.usable = true;
 }
 

@@ -232,6 +232,7 @@ void Scene::make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int thre
                 if (st.vid[j] >= 0) used[size_t(st.vid[j])] = 1;
         const size_t kBlock = 256;
         parallel_for((nv + kBlock - 1) / kBlock, threads, [&](size_t b, int) {
+            if (cancel_flag.load(std::memory_order_relaxed)) return;
             for (size_t i = b * kBlock; i < std::min(nv, (b + 1) * kBlock); ++i) {
                 if (!used[i]) continue;
                 const Vec3 p(patch_vertices[3 * i], patch_vertices[3 * i + 1], patch_vertices[3 * i + 2]);
@@ -252,8 +253,10 @@ void Scene::make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int thre
     std::vector<std::vector<BeamPrism>>& out = prism_lists_;
     if (out.size() < src.size()) out.resize(src.size());
     std::vector<std::vector<std::array<Vec3, 3>>> out_normals(normals ? src.size() : 0);
+    if (cancel_flag.load()) throw BuildCancelled{};
     parallel_for(src.size(), threads, [&](size_t ti, int) {
         out[ti].clear();
+        if (cancel_flag.load(std::memory_order_relaxed)) return;
         const SourceTri& st = src[ti];
         const Water& w = waters[st.water];
         const bool rough = st.periodic && ocean_rough;  // the ocean patch's facets
@@ -363,16 +366,37 @@ void Scene::make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int thre
             if (normals) out_normals[ti].push_back({it.n[0], it.n[1], it.n[2]});
         }
     });
+    if (cancel_flag.load()) throw BuildCancelled{};
     size_t total = dest->size();
     for (size_t ti = 0; ti < src.size(); ++ti) total += out[ti].size();
     make_room(*dest, total);
-    for (size_t ti = 0; ti < src.size(); ++ti)
+    for (size_t ti = 0; ti < src.size(); ++ti) {
+        if ((ti & 1023) == 0 && cancel_flag.load(std::memory_order_relaxed)) throw BuildCancelled{};
         for (const BeamPrism& p : out[ti]) dest->push_back(p);
+    }
     if (normals)
         for (const auto& list : out_normals) normals->insert(normals->end(), list.begin(), list.end());
 }
 
 void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2) {
+    try {
+        build_beams_now(sun_direction, threads, facet_u1, facet_u2);
+    } catch (const BuildCancelled&) {  // no beams, and nothing half-built kept for the next build
+        prisms.clear();
+        air_prisms.clear();
+        prism_keys_.clear();
+        air_keys_.clear();
+        grid_.clear();
+        air_grid_.clear();
+        grid_ref_.built = grid_ref_.usable = false;
+        grid_ref_.prisms.clear();
+        grid_ref_.grid.clear();
+        water_grid_ = &grid_;
+        flat_beam = flat_air_beam = false;
+    }
+}
+
+void Scene::build_beams_now(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2) {
     prisms.clear();
     air_prisms.clear();
     flat_beam = false;
@@ -472,9 +496,9 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
             water_grid_ = &grid_ref_.grid;
         }
     }
-    if (water_grid_ == &grid_) build_grid(prisms, prism_keys_, &grid_);
+    if (water_grid_ == &grid_) build_grid(prisms, prism_keys_, &grid_, nullptr, nullptr, &cancel_flag);
     make_keys(air_prisms, &air_keys_);
-    build_grid(air_prisms, air_keys_, &air_grid_);
+    build_grid(air_prisms, air_keys_, &air_grid_, nullptr, nullptr, &cancel_flag);
 }
 
 namespace {
@@ -686,10 +710,13 @@ void Scene::grid_shear(const HugeVector<PrismKey>& keys, double* sx, double* sy)
 }
 
 void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, BeamGrid* grid_out,
-                       const double* margin_a, const double* margin_g) {
+                       const double* margin_a, const double* margin_g, const std::atomic<bool>* cancel) {
     BeamGrid& grid = *grid_out;
     grid.clear();
     if (prisms.empty()) return;
+    auto check_cancel = [cancel](size_t pi) {  // (every 4,096 prisms)
+        if (cancel && (pi & 4095) == 0 && cancel->load(std::memory_order_relaxed)) throw BuildCancelled{};
+    };
     double sx, sy;
     grid_shear(keys, &sx, &sy);
     auto dxdz = [](const PrismKey& K, int j) { return K.up ? K.bx[j] : -K.bx[j]; };
@@ -735,6 +762,7 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
     Vec3 lo(kInf, kInf, kInf), hi(-kInf, -kInf, -kInf);
     std::vector<double> widths, drifts;
     for (size_t pi = 0; pi < prisms.size(); ++pi) {
+        check_cancel(pi);
         const BeamPrism& P = prisms[pi];
         double h0, h1;
         span(P, &h0, &h1);
@@ -906,6 +934,7 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
         for (int k = 0; k < grid.nz; ++k) {
             marks.clear();
             for (size_t pi = 0; pi < prisms.size(); ++pi) {
+                check_cancel(pi);
                 std::array<std::array<double, 2>, 6> q;
                 double m;
                 if (k < k0[pi] || k > k1[pi] || !layer_piece(pi, k, &q, &m)) continue;
@@ -930,6 +959,7 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
             make_room(grid.last, ncell);
             grid.last.assign(ncell, ~uint32_t(0));
             for (size_t pi = 0; pi < prisms.size(); ++pi) {
+                check_cancel(pi);
                 const BeamPrism& P = prisms[pi];
                 if (keys[pi].horizontal) {
                     int k0, k1;
