@@ -85,9 +85,45 @@ bool Scene::refract_sun(const Vec3& s, const Vec3& n, double ior, Vec3* d, doubl
 }
 
 void Scene::make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int threads, double facet_u1,
-                        double facet_u2, HugeVector<BeamPrism>* dest, std::vector<std::array<Vec3, 3>>* normals) {
+                        double facet_u2, HugeVector<BeamPrism>* dest, std::vector<std::array<Vec3, 3>>* normals,
+                        bool blur) {
     auto ocean_refraction = [&](const Vec3& n, double ior, Vec3* d, double* T, double u1, double u2) {
         return refract_sun(s, n, ior, d, T, u1, u2);
+    };
+    // The sun's disk seen through a prism (BeamPrism::blur_g1): the directions that the prism's
+    // mean normal gives the disk's edge, at right angles, half their differences (the secant
+    // over the disk, to first order in its radius the Jacobian of refraction or reflection),
+    // projected along the beam onto the slicing plane. Where a probe does not refract (total
+    // reflection is near) the prism stays sharp.
+    const double blur_alpha = std::acos(std::clamp(sun_cos_half, -1.0, 1.0));
+    const Frame sun_frame(s);
+    auto set_blur = [&](BeamPrism* P, const Vec3 n[3], double ior) {
+        const Vec3 nc = normalize(n[0] + n[1] + n[2]);
+        auto dir = [&](const Vec3& sp, Vec3* d) {
+            if (!(dot(nc, sp) > 0.0)) return false;
+            if (air) {
+                *d = reflect(-sp, nc);
+                return true;
+            }
+            return refract(-sp, nc, 1.0, ior, d);
+        };
+        Vec3 dc;
+        if (!dir(s, &dc) || !(dot(dc, P->m) > 1e-6)) return;
+        const double ca = std::cos(blur_alpha), sa = std::sin(blur_alpha);
+        Vec3 k[2];
+        for (int a = 0; a < 2; ++a) {
+            const Vec3& e = a ? sun_frame.t : sun_frame.s;
+            Vec3 dp, dm;
+            if (!dir(s * ca + e * sa, &dp) || !dir(s * ca - e * sa, &dm)) return;
+            const Vec3 kk = (dp - dm) * 0.5;
+            k[a] = kk - dc * (dot(kk, P->m) / dot(dc, P->m));
+        }
+        const double D = dot(cross(k[0], k[1]), P->m);
+        if (!(std::fabs(D) > 1e-300)) return;
+        P->blur_g1 = cross(k[1], P->m) * (1.0 / D);
+        P->blur_g2 = cross(P->m, k[0]) * (1.0 / D);
+        P->blur_det = std::fabs(D);
+        P->blur_reach = std::sqrt(dot(k[0], k[0]) + dot(k[1], k[1]));
     };
     // Source triangles: the ocean patch (with its vertex normals) and the sun-facing faces of
     // closed water meshes (face normals).
@@ -333,6 +369,7 @@ void Scene::make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int thre
                 ok = ok && P.md[j] > 1e-6;
             }
             if (!ok) continue;  // vertex rays diverging by > 90 deg: no consistent slicing
+            if (blur && blur_alpha > 0.0) set_blur(&P, it.n, w.ior);
             P.n_src = st.nf;
             P.water = air ? -1 : st.water;
             P.periodic = st.periodic;
@@ -378,10 +415,11 @@ void Scene::make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int thre
         for (const auto& list : out_normals) normals->insert(normals->end(), list.begin(), list.end());
 }
 
-void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2) {
+void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2, bool keep_prisms) {
     try {
-        build_beams_now(sun_direction, threads, facet_u1, facet_u2);
+        build_beams_now(sun_direction, threads, facet_u1, facet_u2, keep_prisms);
     } catch (const BuildCancelled&) {  // no beams, and nothing half-built kept for the next build
+        blurred_prisms_built_ = false;
         prisms.clear();
         air_prisms.clear();
         prism_keys_.clear();
@@ -396,15 +434,21 @@ void Scene::build_beams(const Vec3& sun_direction, int threads, double facet_u1,
     }
 }
 
-void Scene::build_beams_now(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2) {
-    prisms.clear();
-    air_prisms.clear();
+void Scene::build_beams_now(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2,
+                            bool keep_prisms) {
+    const bool blur = sun_blur_active();
+    const bool keep = keep_prisms && blur && blurred_prisms_built_;
+    if (!keep) {
+        blurred_prisms_built_ = false;
+        prisms.clear();
+        air_prisms.clear();
+        grid_.clear();
+        air_grid_.clear();
+    }
     flat_beam = false;
     flat_air_beam = false;
     flat_d.clear();
     flat_e0.clear();
-    grid_.clear();
-    air_grid_.clear();
     if (!has_sun) return;
     const Vec3 s = normalize(sun_direction);
     beam_sun_dir = s;
@@ -476,6 +520,24 @@ void Scene::build_beams_now(const Vec3& sun_direction, int threads, double facet
         flat_air_beam = F > 0.0;
     }
 
+    if (keep) return;  // (the shadow rays' direction, beam_sun_dir, and the flat beams are s's)
+    if (blur) {
+        // The prisms of the sun's centre, each spread over the disk's image: built once for
+        // every pass (which keep_prisms then asks for), with a grid of their own whose marks
+        // reach as far as the blur does.
+        const Vec3 c = normalize(sun_dir);
+        make_prisms(c, e_sun, false, threads, 0.5, 0.0, &prisms, nullptr, true);
+        if (need_air) make_prisms(c, e_sun, true, threads, 0.5, 0.0, &air_prisms, nullptr, true);
+        water_grid_ = &grid_;
+        make_keys(prisms, &prism_keys_);
+        blur_margins(prisms, prism_keys_);
+        build_grid(prisms, prism_keys_, &grid_, blur_margin_a_.data(), blur_margin_g_.data(), &cancel_flag);
+        make_keys(air_prisms, &air_keys_);
+        blur_margins(air_prisms, air_keys_);
+        build_grid(air_prisms, air_keys_, &air_grid_, blur_margin_a_.data(), blur_margin_g_.data(), &cancel_flag);
+        blurred_prisms_built_ = true;
+        return;
+    }
     // The grid of the sun's centre, the first time (in the buffers of this build's prisms,
     // which it leaves empty, so that their memory is not faulted in twice).
     const GridReference& ref = grid_ref_;
@@ -685,6 +747,41 @@ void Scene::make_keys(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>*
             K.by[j] = P.d[j].y / P.md[j];
             K.ax[j] = P.v[j].x - K.bx[j] * P.mv[j];
             K.ay[j] = P.v[j].y - K.by[j] * P.mv[j];
+        }
+        // The blur's reach at h: blur_reach times the largest path length of the three rays,
+        // t_j = h / md_j - mv_j / md_j (all md_j > 0), bounded by one line on each side of 0,
+        // widened a little beyond rounding (floats).
+        K.r_hi = K.r_lo = K.r_c = 0.0f;
+        if (P.blur_det > 0.0) {
+            double a_hi = 0.0, a_lo = kInf, c = -kInf;
+            for (int j = 0; j < 3; ++j) {
+                a_hi = std::max(a_hi, 1.0 / P.md[j]);
+                a_lo = std::min(a_lo, 1.0 / P.md[j]);
+                c = std::max(c, -P.mv[j] / P.md[j]);
+            }
+            const double r = 1.01 * P.blur_reach;
+            K.r_hi = float(r * a_hi);
+            K.r_lo = float(r * a_lo);
+            K.r_c = float(r * c + (c > 0.0 ? 1e-6 * r * c : -1e-6 * r * c));
+        }
+    }
+}
+
+void Scene::blur_margins(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys) {
+    // A horizontally sliced prism's blur reaches R(h) <= r_hi |h| + max(r_c, 0) across, and
+    // |h| = |z|; a prism sliced otherwise: its reach at the farthest end of its rays.
+    blur_margin_a_.assign(prisms.size(), 0.0);
+    blur_margin_g_.assign(prisms.size(), 0.0);
+    for (size_t pi = 0; pi < prisms.size(); ++pi) {
+        const BeamPrism& P = prisms[pi];
+        const PrismKey& K = keys[pi];
+        if (P.blur_det <= 0.0) continue;
+        if (K.horizontal) {
+            blur_margin_a_[pi] = std::max(0.0, double(K.r_c));
+            blur_margin_g_[pi] = std::max(0.0, double(K.r_hi));
+        } else {
+            const double l = std::max({P.len[0], P.len[1], P.len[2], 0.0});
+            blur_margin_a_[pi] = 1.001 * P.blur_reach * l;
         }
     }
 }
@@ -988,8 +1085,8 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
                     const int x1 = std::clamp(int((bhi.x + m - lo.x) / cxy), 0, grid.nx - 1);
                     const int y0 = std::clamp(int((blo.y - m - lo.y) / cxy), 0, grid.ny - 1);
                     const int y1 = std::clamp(int((bhi.y + m - lo.y) / cxy), 0, grid.ny - 1);
-                    const int z0 = std::clamp(int((blo.z - lo.z) / cz), 0, grid.nz - 1);
-                    const int z1 = std::clamp(int((bhi.z - lo.z) / cz), 0, grid.nz - 1);
+                    const int z0 = std::clamp(int((blo.z - m - lo.z) / cz), 0, grid.nz - 1);
+                    const int z1 = std::clamp(int((bhi.z + m - lo.z) / cz), 0, grid.nz - 1);
                     for (int z = z0; z <= z1; ++z)
                         for (int y = y0; y <= y1; ++y)
                             for (int x = x0; x <= x1; ++x) {
@@ -1021,11 +1118,72 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
     }
 }
 
+namespace {
+
+// The area of the triangle (u_j, v_j) within the unit disk around the origin: exactly pi when
+// the disk lies within the triangle. Summed per edge a -> b over the triangle (origin, a, b)
+// cut by the circle: its straight parts inside, circular sectors outside (signed).
+double unit_disk_triangle_overlap(const double u[3], const double v[3]) {
+    if (std::min({u[0], u[1], u[2]}) >= 1.0 || std::max({u[0], u[1], u[2]}) <= -1.0 ||
+        std::min({v[0], v[1], v[2]}) >= 1.0 || std::max({v[0], v[1], v[2]}) <= -1.0)
+        return 0.0;
+    const double twice = (u[1] - u[0]) * (v[2] - v[0]) - (u[2] - u[0]) * (v[1] - v[0]);
+    bool all_in = true, far_edges = twice != 0.0;
+    for (int j = 0; j < 3; ++j) {
+        all_in = all_in && u[j] * u[j] + v[j] * v[j] <= 1.0;
+        const int k = (j + 1) % 3;
+        const double eu = u[k] - u[j], ev = v[k] - v[j];
+        // the origin's distance from the edge's line, positive inside
+        const double dist = (eu * (-v[j]) - ev * (-u[j])) * (twice > 0.0 ? 1.0 : -1.0);
+        far_edges = far_edges && dist > 0.0 && dist * dist >= eu * eu + ev * ev;
+    }
+    if (far_edges) return kPi;
+    if (all_in) return 0.5 * std::fabs(twice);
+    double sum = 0.0;
+    for (int j = 0; j < 3; ++j) {
+        const int k = (j + 1) % 3;
+        const double au = u[j], av = v[j], du = u[k] - au, dv = v[k] - av;
+        const double dd = du * du + dv * dv;
+        if (!(dd > 0.0)) continue;
+        // |a + t d|^2 = 1: the segment's crossings of the circle, in (0, 1)
+        double ts[4] = {0.0, 0.0, 0.0, 1.0};
+        int nt = 1;
+        const double b = au * du + av * dv, c = au * au + av * av - 1.0;
+        const double disc = b * b - dd * c;
+        if (disc > 0.0) {
+            const double r = std::sqrt(disc);
+            const double q = b >= 0.0 ? -(b + r) : -(b - r);  // (stable roots)
+            double t1 = q / dd, t2 = q != 0.0 ? c / q : t1;
+            if (t1 > t2) std::swap(t1, t2);
+            if (t1 > 0.0 && t1 < 1.0) ts[nt++] = t1;
+            if (t2 > 0.0 && t2 < 1.0) ts[nt++] = t2;
+        }
+        ts[nt++] = 1.0;
+        for (int i = 0; i + 1 < nt; ++i) {
+            const double pu = au + du * ts[i], pv = av + dv * ts[i];
+            const double qu = au + du * ts[i + 1], qv = av + dv * ts[i + 1];
+            const double mu = 0.5 * (pu + qu), mv = 0.5 * (pv + qv);
+            const double cr = pu * qv - pv * qu;
+            if (mu * mu + mv * mv <= 1.0)
+                sum += 0.5 * cr;
+            else
+                sum += 0.5 * std::atan2(cr, pu * qu + pv * qv);
+        }
+    }
+    // (a triangle outside the disk leaves sectors that cancel but for rounding, ~1e-16: such
+    // overlaps, and any below 1e-12 of the disk, are none)
+    const double a = std::fabs(sum);
+    return a > 1e-12 ? a : 0.0;
+}
+
+}  // namespace
+
 bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, BeamSample* out,
                        bool exact) const {
     // The slice through y: its corners p_j on the vertex rays (at t_j), its area S along m
     // and y's barycentric coordinates l_j in it.
     double t[3], S, l0, l1, h;
+    Vec3 off[3];  // the slice's corners relative to y (for the blur)
     if (P.m.x == 0.0 && P.m.y == 0.0) {
         // Horizontal slices (most prisms): only the z components of the products along m are
         // nonzero; the same operations as the general case's on them, so the same results.
@@ -1042,6 +1200,7 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
         if (S == 0.0) return false;
         l0 = 0.5 * (cross_z(px[1] - y.x, py[1] - y.y, px[2] - y.x, py[2] - y.y) * mz) / S;
         l1 = 0.5 * (cross_z(px[2] - y.x, py[2] - y.y, px[0] - y.x, py[0] - y.y) * mz) / S;
+        for (int j = 0; j < 3; ++j) off[j] = Vec3(px[j] - y.x, py[j] - y.y, 0.0);
     } else {
         h = dot(P.m, y);
         Vec3 p[3];
@@ -1053,10 +1212,43 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
         if (S == 0.0) return false;
         l0 = 0.5 * dot(cross(p[1] - y, p[2] - y), P.m) / S;
         l1 = 0.5 * dot(cross(p[2] - y, p[0] - y), P.m) / S;
+        for (int j = 0; j < 3; ++j) off[j] = p[j] - y;
     }
     double l2 = 1.0 - l0 - l1;
     const double tol = -1e-12;
-    if (l0 < tol || l1 < tol || l2 < tol) return false;
+    const bool inside = !(l0 < tol || l1 < tol || l2 < tol);
+    // With the sun's disk (blur_det > 0): the slice's light spread over the disk's image, an
+    // ellipse K around each of its points. At y: flux x area(slice within K(y)) / (S area(K)),
+    // i.e. the flux over a_blur = area(K) S / area(slice within K), computed where K is the
+    // unit disk (ratios of areas are kept). Where K lies within the slice, the sharp value.
+    double a_blur = 0.0;
+    if (P.blur_det > 0.0) {
+        // the blur at the path length of the slice's point nearest y (barycentric coordinates
+        // clamped), which also gives the light's direction and path below when y is outside
+        const double c0 = std::max(l0, 0.0), c1 = std::max(l1, 0.0), c2 = std::max(l2, 0.0);
+        const double cs = c0 + c1 + c2;
+        const double lb = (c0 * t[0] + c1 * t[1] + c2 * t[2]) / cs;
+        if (!(lb > 0.0)) {
+            if (!inside) return false;
+        } else {
+            double u[3], v[3];
+            for (int j = 0; j < 3; ++j) {
+                u[j] = dot(off[j], P.blur_g1) / lb;
+                v[j] = dot(off[j], P.blur_g2) / lb;
+            }
+            const double at = 0.5 * std::fabs((u[1] - u[0]) * (v[2] - v[0]) - (u[2] - u[0]) * (v[1] - v[0]));
+            const double overlap = std::min(unit_disk_triangle_overlap(u, v), at);
+            if (!(overlap > 0.0)) return false;
+            if (overlap < kPi) {  // (kPi exactly: the disk within the slice)
+                a_blur = kPi * P.blur_det * lb * lb * at / overlap;
+                l0 = c0 / cs;
+                l1 = c1 / cs;
+                l2 = c2 / cs;
+            }
+        }
+    } else if (!inside) {
+        return false;
+    }
     double l = l0 * t[0] + l1 * t[1] + l2 * t[2];
     double lend = l0 * P.len[0] + l1 * P.len[1] + l2 * P.len[2];
     if (l < 0.0 || l > lend) return false;
@@ -1066,12 +1258,13 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
     double md = dot(P.m, d);
     if (!(md > 0.0)) return false;
     // Lower bound of the cross-section, so that foci stay finite. The sun's finite size is
-    // what bounds real foci; it is represented by drawing a direction in the disk for every
-    // pass, and the average over passes blurs each focus over the sun's image. Within one pass
-    // the cross-section is only kept above a tiny fraction of the source cell's area
-    // (beam_min_area_fraction, 1e-6): irradiance at most 1e6 times the cell's, and the flux
-    // lost in slices thinner than that is negligible (flux conservation is tested to 1e-5).
-    double a_eff = std::max(std::fabs(S), beam_min_area_fraction * P.src_area);
+    // what bounds real foci: with the blur, a_blur is at least the disk image's area; without
+    // it (a rough sea), a direction drawn in the disk for every pass, and the average over
+    // passes blurs each focus over the sun's image. Within one pass the cross-section is only
+    // kept above a tiny fraction of the source cell's area (beam_min_area_fraction, 1e-6):
+    // irradiance at most 1e6 times the cell's, and the flux lost in slices thinner than that
+    // is negligible (flux conservation is tested to 1e-5).
+    double a_eff = a_blur > 0.0 ? a_blur : std::max(std::fabs(S), beam_min_area_fraction * P.src_area);
     if (P.check_path || P.check_sun) {
         // The light reaching y entered the water at e, the point of the source triangle with
         // y's barycentric coordinates (exactly on the surface, so the shadow rays start on the
@@ -1205,7 +1398,17 @@ inline bool may_cover(const Key& K, const Vec3& y, int medium, bool shifted) {
     const double tol = -1e-9 * std::fabs(C);
     const double s0 = C > 0.0 ? c0 : -c0, s1 = C > 0.0 ? c1 : -c1;
     const double s2 = (C > 0.0 ? C : -C) - s0 - s1;
-    return !(s0 < tol || s1 < tol || s2 < tol);
+    if (!(s0 < tol || s1 < tol || s2 < tol)) return true;
+    // Outside: a blurred prism still reaches y within R of every edge's line (s_k is twice
+    // the area of y and edge k: R |edge k| at that distance).
+    const double R = double(h >= 0.0 ? K.r_hi : K.r_lo) * h + double(K.r_c);
+    if (!(R > 0.0)) return false;
+    const double R2 = R * R;
+    auto near = [&](double sk, int a, int b) {
+        const double eu = px[b] - px[a], ev = py[b] - py[a];
+        return sk >= tol || sk * sk <= R2 * (eu * eu + ev * ev) * (1.0 + 1e-9);
+    };
+    return near(s0, 1, 2) && near(s1, 2, 0) && near(s2, 0, 1);
 }
 
 }  // namespace
@@ -1267,10 +1470,32 @@ void Scene::find_candidates(const HugeVector<BeamPrism>& prisms, const HugeVecto
 
 int Scene::eval_candidates(const HugeVector<BeamPrism>& prisms, const BeamCandidate* found, size_t count,
                            const Vec3& x, BeamSample* out, int n, int max, bool exact) const {
-    for (size_t q = 0; q < count && n < max; ++q) {
+    if (max <= 0) return n;
+    for (size_t q = 0; q < count; ++q) {
         const BeamCandidate& f = found[q];
         const Vec3 y = x - Vec3(double(f.i) * patch_lx, double(f.j) * patch_ly, 0.0);
-        if (prism_eval(prisms[f.prism], y, x, &out[n], exact)) ++n;
+        if (n < max) {
+            if (prism_eval(prisms[f.prism], y, x, &out[n], exact)) ++n;
+            continue;
+        }
+        // More beams than the list holds (the sun's disk spread over many small prisms far
+        // down): the beam joins the listed one nearest in direction, so no light is lost (their
+        // directions differ by about the disk's image).
+        BeamSample b;
+        if (!prism_eval(prisms[f.prism], y, x, &b, exact)) continue;
+        int best = 0;
+        for (int k = 1; k < n; ++k)
+            if (dot(out[k].d, b.d) > dot(out[best].d, b.d)) best = k;
+        BeamSample& a = out[best];
+        double wa = 0.0, wb = 0.0;
+        for (int k = 0; k < nbands; ++k) {
+            wa += a.e.v[k];
+            wb += b.e.v[k];
+        }
+        const double w = wa + wb > 0.0 ? wb / (wa + wb) : 0.5;
+        a.d = normalize(a.d * (1.0 - w) + b.d * w);
+        a.l = a.l * (1.0 - w) + b.l * w;
+        for (int k = 0; k < nbands; ++k) a.e.v[k] += b.e.v[k];
     }
     return n;
 }

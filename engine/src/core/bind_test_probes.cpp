@@ -122,7 +122,9 @@ void bind_test_probes(py::class_<Scene>& scene) {
                 double area = 0.5 * std::fabs((p[1].x - p[0].x) * (p[2].y - p[0].y) - (p[2].x - p[0].x) * (p[1].y - p[0].y));
                 Vec3 cen = (p[0] + p[1] + p[2]) * (1.0 / 3.0);
                 BeamSample b;
-                if (!s.prism_eval(P, cen, cen, &b)) continue;
+                BeamPrism sharp = P;  // (the prism's own flux density, not spread over the sun's disk)
+                sharp.blur_det = 0.0;
+                if (!s.prism_eval(sharp, cen, cen, &b)) continue;
                 flux += b.e.v[0] * (-b.d.z) * area;
             }
             return flux;

@@ -117,12 +117,21 @@ PYBIND11_MODULE(_core, m) {
         .def_readwrite("beam_min_area_fraction", &Scene::beam_min_area_fraction)
         .def_readonly("cone_half_angle", &Scene::cone_half_angle)
         .def("set_forward_cone", &Scene::set_forward_cone, py::arg("half_angle_rad"))
-        .def("build_beams", [](Scene& s, std::array<double, 3> sun_dir, int threads, std::array<double, 2> facet_u) {
+        .def("build_beams", [](Scene& s, std::array<double, 3> sun_dir, int threads, std::array<double, 2> facet_u,
+                               bool keep_prisms) {
             py::gil_scoped_release nogil;
-            s.build_beams(to_vec(sun_dir), threads, facet_u[0], facet_u[1]);
+            s.build_beams(to_vec(sun_dir), threads, facet_u[0], facet_u[1], keep_prisms);
         }, py::arg("sun_direction"), py::arg("threads") = 0, py::arg("facet_u") = std::array<double, 2>{0.5, 0.0},
+           py::arg("keep_prisms") = false,
            "Builds the beams for one sun direction (drawn in the disk for every pass); with a rough "
-           "ocean surface, facet_u (two uniforms in [0, 1)) picks the sub-pixel facet of this build.")
+           "ocean surface, facet_u (two uniforms in [0, 1)) picks the sub-pixel facet of this build. "
+           "With the sun-disk blur (beam_sun_blur, no rough sea) the prisms are the sun centre's "
+           "and keep_prisms keeps those of the last build, only the shadow rays' direction and a "
+           "flat sea's beams following sun_direction.")
+        .def_readwrite("beam_sun_blur", &Scene::beam_sun_blur,
+                       "Spread each prism over the sun's disk (built once for its centre) instead of "
+                       "drawing a direction in the disk for every build.")
+        .def_property_readonly("sun_blur_active", &Scene::sun_blur_active)
         .def_property_readonly("ocean_rough", [](const Scene& s) { return s.ocean_rough; })
         .def_property_readonly("beam_count", [](const Scene& s) { return s.prisms.size(); })
         .def_property_readonly("has_flat_beam", [](const Scene& s) { return s.flat_beam; })

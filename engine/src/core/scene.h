@@ -141,9 +141,18 @@ struct alignas(64) BeamPrism {
     // The sun reflected by the water surface into the air (water = -1: no attenuation), lit
     // on the air side of its source.
     bool reflected = false;
+    // The sun's disk as seen through this prism (sun_blur): at path length l, the light of
+    // the slice's point x spreads over the ellipse {x + l (u k1 + v k2): u^2 + v^2 <= 1} of the
+    // slicing plane, k1, k2 the drifts of the refracted (reflected) direction for the disk's
+    // edge, projected along the beam. Stored as the dual vectors g1, g2 (point p at offset
+    // p - x from the centre: u = g1 . (p - x) / l) and the ellipse's area per l^2 over pi
+    // (blur_det; 0: a sharp prism).
+    Vec3 blur_g1, blur_g2;
+    double blur_det = 0.0;
     Spectrum phi;      // flux entering the water through the triangle, per band
     // (not read by queries)
     bool hit[3];       // whether each vertex ray ended on a surface
+    double blur_reach = 0.0;  // the blur ellipse's largest semi-axis per unit of path length
     Vec3 lo, hi;       // bounding box
 };
 // The lines a query reads: up to phi's first three bands.
@@ -222,6 +231,13 @@ public:
     double cone_half_angle = 0.0;     // forward-scattering cone (radians); 0: full phase function
     int beam_max_level = 5;           // adaptive subdivision levels of a surface triangle
     double beam_min_area_fraction = 1e-6;  // floor of a cross-section, times the source area
+    // The sun's finite disk in the beams (beams.cpp, prism_eval): true, the prisms are built
+    // once for the sun's centre and each spreads its light over the image of the disk (an
+    // ellipse growing with path length), which bounds the irradiance of caustic foci where a
+    // prism's cross-section collapses; false (and always below a rough sea, whose facets are
+    // drawn per build), every build takes its own direction within the disk and the average
+    // over passes does the spreading.
+    bool beam_sun_blur = true;
     // Beams of the current pass (rebuilt for every sun direction drawn in the disk): the
     // refracted sun in the water, and the sun reflected by smooth water surfaces into the air
     // (where opaque objects or radiometers stand in the air).
@@ -253,7 +269,14 @@ public:
     // Stops early, leaving no beams, when cancel() is called (checked per block of vertices,
     // per source triangle and per 4,096 prisms of the grid: a 512 x 512 patch's first build
     // takes seconds).
-    void build_beams(const Vec3& sun_direction, int threads, double facet_u1 = 0.5, double facet_u2 = 0.0);
+    // keep_prisms: with the sun-disk blur, the prisms of the last whole build (all built for
+    // the sun's centre) are kept and only the direction of the shadow rays and of a flat sea's
+    // analytic beams follow sun_direction: one build per render instead of one per pass.
+    void build_beams(const Vec3& sun_direction, int threads, double facet_u1 = 0.5, double facet_u2 = 0.0,
+                     bool keep_prisms = false);
+    // Whether builds spread each prism over the sun's disk (beam_sun_blur, a sun of finite size,
+    // no rough sea).
+    bool sun_blur_active() const { return beam_sun_blur && !ocean_rough && sun_cos_half < 1.0; }
     // Every beam covering x (in water body `medium`, or -1: the reflected beams in the air);
     // returns how many were written (<= max).
     // exact = false: in stratified or gridded water each beam's irradiance is attenuated with
@@ -473,6 +496,9 @@ private:
         bool horizontal;  // sliced by horizontal planes: h = -z (down) or z (up)
         bool up;
         bool periodic;    // below (or above) the periodic ocean patch: looked up in every period
+        // The sun-disk blur's reach across at height h: at most (h >= 0 ? r_hi : r_lo) h + r_c
+        // (0 for a sharp prism).
+        float r_hi, r_lo, r_c;
     };
     // Fetches the keys of the candidates of the cell whose record is rec (inline: see
     // prefetch_beams; two loops, as a select between the record and the item list would load
@@ -537,7 +563,8 @@ private:
     // appended to dest: refracted into the water, or (air) reflected into the air; normals
     // (optional): each prism's corners' shading normals, appended alike.
     void make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int threads, double facet_u1, double facet_u2,
-                     HugeVector<BeamPrism>* dest, std::vector<std::array<Vec3, 3>>* normals = nullptr);
+                     HugeVector<BeamPrism>* dest, std::vector<std::array<Vec3, 3>>* normals = nullptr,
+                     bool blur = false);
     BeamGrid air_grid_;
     HugeVector<PrismKey> air_keys_;
     static void make_keys(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys);
@@ -550,7 +577,12 @@ private:
                            const double* margin_a = nullptr, const double* margin_g = nullptr,
                            const std::atomic<bool>* cancel = nullptr);
     // build_beams' work; throws BuildCancelled when cancel_flag is set on the way.
-    void build_beams_now(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2);
+    void build_beams_now(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2, bool keep_prisms);
+    // The prisms now held were built (whole) for the sun's centre with the blur.
+    bool blurred_prisms_built_ = false;
+    // The disk blur's margins of the current prisms for build_grid (per prism: a + g |z|).
+    std::vector<double> blur_margin_a_, blur_margin_g_;
+    void blur_margins(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys);
     struct BuildCancelled {};
     // The prisms of one set (keys and grid) covering x, appended to out from index n.
     int lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,

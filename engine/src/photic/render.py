@@ -328,9 +328,12 @@ def uses_beams(scene: Scene, hybrid: bool) -> bool:
 
 
 def build_pass_beams(core, scene: Scene, seed: int, key: tuple, i: int, n: int, threads: int,
-                     paired: bool) -> None:
+                     paired: bool, keep: bool = False) -> None:
     """Before pass ``i`` of ``n`` of the hybrid integrator: beams for the sun direction (and a
-    rough sea's facet) that pass_draw gives it. Without a sun there are no beams."""
+    rough sea's facet) that pass_draw gives it. Without a sun there are no beams. ``keep``:
+    the core's beams were built by an earlier pass of this render; with the sun-disk blur
+    (the prisms are then the sun centre's in every pass) they are kept, and only the shadow
+    rays and a flat sea's beams take this pass's direction."""
     if scene.sun is None:
         return
     u1, u2, f1, f2 = pass_draw(seed, key, i, n, paired, core.ocean_rough)
@@ -338,7 +341,7 @@ def build_pass_beams(core, scene: Scene, seed: int, key: tuple, i: int, n: int, 
     if core.ocean_rough:
         core.build_beams(direction, threads, (f1, f2))
     else:
-        core.build_beams(direction, threads)
+        core.build_beams(direction, threads, keep_prisms=keep)
     check_beam_patch_copies(core, scene)
 
 
@@ -757,12 +760,15 @@ class Renderer:
             for k in counters:
                 counters[k] += int(c[k])
 
+        last_core = [None]  # (held, so that its identity stays its own)
+
         def new_pass(core, seed, key, i, n, paired):
             """Before a pass of the hybrid integrator: beams for its sun direction."""
             if not beams:
                 return
             tb = time.perf_counter()
-            build_pass_beams(core, scene, seed, key, i, n, self.threads, paired)
+            build_pass_beams(core, scene, seed, key, i, n, self.threads, paired, keep=last_core[0] is core)
+            last_core[0] = core
             beam_stats["build_s"] += time.perf_counter() - tb
             beam_stats["passes"] += 1
             beam_stats["prisms"] = max(beam_stats["prisms"], core.beam_count)

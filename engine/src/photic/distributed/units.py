@@ -191,7 +191,7 @@ def _render_unit(spec: dict, scene, core, t0: float, c0: float) -> dict:
     for k, (start, n) in enumerate(spec["passes"]):
         if spec.get("beams", spec["hybrid"]):
             build_pass_beams(core, scene, spec["seed"], sensor_key, spec["first"] + k, spec["npasses"],
-                             threads, paired=not camera)
+                             threads, paired=not camera, keep=k > 0)
         if camera:
             s, s2, c = core.render_camera(ci, start, n, threads)
             if sums is None:
