@@ -450,8 +450,22 @@ void Scene::build_beams_now(const Vec3& sun_direction, int threads, double facet
     flat_d.clear();
     flat_e0.clear();
     if (!has_sun) return;
-    const Vec3 s = normalize(sun_direction);
-    beam_sun_dir = s;
+    // With the blur every beam is the sun centre's (a flat sea's analytic ones too: their
+    // spread over the disk, in place and in direction, is the blur's and beam_phase's), and
+    // only the shadow rays take the pass's direction (penumbrae).
+    beam_sun_dir = normalize(sun_direction);
+    const Vec3 s = blur ? normalize(sun_dir) : beam_sun_dir;
+    {
+        // The refracted disk as a circle of the solid angle that a level surface gives it: the
+        // sun's radius over n across the plane of incidence, times cos(i) / (n cos(t)) in it.
+        const double ior = waters.empty() ? 1.34 : waters[ocean_water >= 0 ? ocean_water : 0].ior;
+        const double ci = std::clamp(s.z, 0.0, 1.0);
+        const double ct = std::sqrt(std::max(0.0, 1.0 - (1.0 - ci * ci) / (ior * ior)));
+        const double radius = blur && ci > 0.0
+                              ? std::acos(std::clamp(sun_cos_half, -1.0, 1.0)) / ior * std::sqrt(ci / ct) : 0.0;
+        if (radius != beam_disk_radius || disk_phase_.size() != (radius > 0.0 ? phases.size() : 0))
+            make_disk_phases(radius);
+    }
     {   // refracted sun below a level surface, for sampling along segments
         double n = waters.empty() ? 1.34 : waters[ocean_water >= 0 ? ocean_water : 0].ior;
         double sin_t = std::sqrt(std::max(0.0, 1.0 - s.z * s.z)) / n;
@@ -520,14 +534,13 @@ void Scene::build_beams_now(const Vec3& sun_direction, int threads, double facet
         flat_air_beam = F > 0.0;
     }
 
-    if (keep) return;  // (the shadow rays' direction, beam_sun_dir, and the flat beams are s's)
+    if (keep) return;  // (the prisms kept; the shadow rays take beam_sun_dir)
     if (blur) {
         // The prisms of the sun's centre, each spread over the disk's image: built once for
         // every pass (which keep_prisms then asks for), with a grid of their own whose marks
         // reach as far as the blur does.
-        const Vec3 c = normalize(sun_dir);
-        make_prisms(c, e_sun, false, threads, 0.5, 0.0, &prisms, nullptr, true);
-        if (need_air) make_prisms(c, e_sun, true, threads, 0.5, 0.0, &air_prisms, nullptr, true);
+        make_prisms(s, e_sun, false, threads, 0.5, 0.0, &prisms, nullptr, true);
+        if (need_air) make_prisms(s, e_sun, true, threads, 0.5, 0.0, &air_prisms, nullptr, true);
         water_grid_ = &grid_;
         make_keys(prisms, &prism_keys_);
         blur_margins(prisms, prism_keys_);
@@ -765,6 +778,66 @@ void Scene::make_keys(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>*
             K.r_c = float(r * c + (c > 0.0 ? 1e-6 * r * c : -1e-6 * r * c));
         }
     }
+}
+
+void Scene::make_disk_phases(double a) {
+    // p_a(psi) = (1 / pi a^2) int over the cap of radius a around psi's direction of p: in
+    // polar coordinates about the peak's tip (small angles: the cap a plane disk at distance
+    // psi), the circle of radius rho lies in the cap over an angle theta(rho), so
+    // p_a(psi) = (1 / pi a^2) int p(rho) rho theta(rho) d rho over |psi - a| .. psi + a.
+    beam_disk_radius = a;
+    disk_phase_.assign(phases.size(), {});
+    if (!(a > 0.0)) {
+        disk_phase_.clear();
+        disk_phase_x_max_ = 0.0;
+        return;
+    }
+    const double reach = kDiskPhaseReach * a;
+    disk_phase_step_ = reach / kDiskPhaseNodes;
+    disk_phase_x_max_ = 2.0 * std::pow(std::sin(0.5 * reach), 2);
+    const int steps = 4000;
+    for (size_t pi = 0; pi < phases.size(); ++pi) {
+        const PhaseFunction& ph = phases[pi];
+        auto p = [&](double rho) { return ph.eval(2.0 * std::pow(std::sin(0.5 * rho), 2)); };
+        std::vector<double>& tab = disk_phase_[pi];
+        tab.resize(kDiskPhaseNodes + 1);
+        for (int i = 0; i <= kDiskPhaseNodes; ++i) {
+            const double psi = i * disk_phase_step_;
+            const double r0 = std::fabs(psi - a), r1 = psi + a;
+            double sum = 0.0;
+            if (psi < a) {  // the tip inside the cap: its whole circles up to a - psi
+                const double h = r0 / steps;
+                for (int k = 0; k < steps; ++k) {
+                    const double rho = (k + 0.5) * h;
+                    sum += p(rho) * rho * 2.0 * kPi * h;
+                }
+            }
+            const double h = (r1 - r0) / steps;
+            for (int k = 0; k < steps; ++k) {
+                const double rho = r0 + (k + 0.5) * h;
+                const double c = (rho * rho + psi * psi - a * a) / (2.0 * rho * std::max(psi, 1e-300));
+                const double theta = psi > 0.0 ? 2.0 * std::acos(std::clamp(c, -1.0, 1.0)) : 2.0 * kPi;
+                sum += p(rho) * rho * theta * h;
+            }
+            tab[i] = sum / (kPi * a * a);
+        }
+        // (joined to the phase function at the table's end: the cap's mean differs from the
+        // value there by ~(a / psi)^2 of it, 1e-2 at most; scaled so that nothing jumps)
+        const double end = p(reach), last = tab[kDiskPhaseNodes];
+        for (int i = 0; i <= kDiskPhaseNodes; ++i) {
+            const double f = double(i) / kDiskPhaseNodes;
+            tab[i] *= 1.0 + f * f * (end / last - 1.0);
+        }
+    }
+}
+
+double Scene::disk_phase_eval(int phase, double x) const {
+    const double psi = 2.0 * std::asin(std::sqrt(0.5 * std::max(0.0, x)));
+    const double u = psi / disk_phase_step_;
+    const int i = std::min(int(u), kDiskPhaseNodes - 1);
+    const double t = u - i;
+    const std::vector<double>& tab = disk_phase_[size_t(phase)];
+    return tab[size_t(i)] + t * (tab[size_t(i) + 1] - tab[size_t(i)]);
 }
 
 void Scene::blur_margins(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys) {

@@ -45,6 +45,13 @@ void bind_test_probes(py::class_<Scene>& scene) {
             rtcReleaseDevice(device);
             check_embree("rtcNewGeometry");
         }, "Raises the EmbreeError that Embree's error callback turned the failure of a call into.")
+        .def("beam_phase", [](const Scene& s, int phase, double x) {
+            if (phase < 0 || size_t(phase) >= s.phases.size()) throw std::invalid_argument("beam_phase: no such phase function");
+            return s.beam_phase(phase, x);
+        }, py::arg("phase"), py::arg("x"),
+           "The phase function (1/sr) at x = 1 - cos(psi) as the beams' light meets it (averaged over "
+           "the refracted sun's disk with the blur, after a build).")
+        .def_readonly("beam_disk_radius", &Scene::beam_disk_radius)
         .def("time_beam_lookups", [](const Scene& s, py::array_t<double, py::array::c_style | py::array::forcecast> points,
                                      int medium, int repeats) {
             // The beams at each point, `repeats` times over (one thread, no GIL): (beams found

@@ -92,7 +92,7 @@ void Scene::beam_scatter_sum(const Vec3& o, const Vec3& d, double t, double pdf,
         double xs = std::max(0.0, 1.0 + dot(beams[j].d, d));  // 1 - cos(psi)
         if (xs < cone_x) continue;  // inside the cone the light stays in the beam
         double pv[16];
-        for (size_t ci = 0; ci < nc; ++ci) pv[ci] = phases[w.components[ci].phase].eval(xs);
+        for (size_t ci = 0; ci < nc; ++ci) pv[ci] = beam_phase(w.components[ci].phase, xs);
         double bp[kMaxBands] = {};  // b p per band
         w.add_scattering(local, pv, nbands, bp);
         for (int kb = 0; kb < nbands; ++kb) out->v[kb] += att[kb] * bp[kb] * beams[j].e.v[kb] / pdf;
@@ -215,12 +215,16 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
     for (;;) {
         Hit h;
         double t_hit;
-        // Whether this vertex's guided mixture sent the path into the beam's forward peak (its
-        // direction more likely under the beam-direction pdf than under the vertex's own): such
-        // a path carries the guide's small weight, and Russian roulette, which would return
-        // the survivors to a weight of about 1 at the odds of that small weight, would make
-        // exactly the rare, huge samples the guide removes; it is skipped there (a choice that
-        // depends only on the path so far, so the estimate stays unbiased).
+        // Whether this vertex sent the path into the beam's forward peak (its direction more
+        // likely under the beam-direction pdf than under the vertex's own, or denser than
+        // kBeamPeakPdf under it): such a path carries the guide's small weight (or got there
+        // from one that did: a forward scattering keeps it in the peak), its next beam terms
+        // multiply two forward peaks, and Russian roulette, which would return the survivors
+        // to a weight of about 1 at the odds of that small weight, would make exactly the rare,
+        // huge samples the guide removes (the main example's fireflies: a floor's guided
+        // continuation, then roulette at the next scattering, still in the peak, boosting it
+        // 42 times); it is skipped there (a choice that depends only on the path so far, so
+        // the estimate stays unbiased).
         bool into_peak = false;
         if (medium >= 0) {
             const Water& w = waters[medium];
@@ -385,7 +389,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                     // taken with probability qb (balance heuristic with q samples expected).
                     double pb = beam_direction_pdf(w, bd, nd);
                     bv_weight = pmix / (pmix + qb * pb);
-                    into_peak = guide && pb > pa;
+                    into_peak = guide && (pb > pa || pb > kBeamPeakPdf);
                     Vec3 wb;
                     double pa_b = 0.0, pb_b = 0.0;
                     if (qb >= 1.0 || rng.uniform() < qb) {
@@ -513,7 +517,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 if (guide) scale = pm > 0.0 ? pa / pm : 0.0;
                 guided_weight *= scale;
                 bv_weight = pm / (pm + q * pb);
-                into_peak = guide && pb > pa;
+                into_peak = guide && (pb > pa || pb > kBeamPeakPdf);
                 Vec3 wb;
                 double cb = 0.0;
                 if (q >= 1.0 || rng.uniform() < q) {
@@ -905,8 +909,21 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
     }
     if (sensor_beams || sensor_air_beams) {
         // The refracted (or, in the air, reflected) sun at the radiometer itself, in closed form.
+        // With the sun-disk blur every beam is the sun centre's: a radiance or a radiance
+        // distribution, whose response steps at its cap's or bin's edge, takes it at a point
+        // drawn in the disk's image around the beam (a cap of the refracted radius in water,
+        // of the sun's own in the air), as the passes' directions drawn in the disk did.
+        const bool stepped = r.quantity == Quantity::kRadiance || r.quantity == Quantity::kRadianceDistribution;
+        const double radius = !stepped || !sun_blur_active() ? 0.0
+                              : r.medium >= 0 ? beam_disk_radius : std::acos(std::clamp(sun_cos_half, -1.0, 1.0));
         for (int j = 0; j < n_at_sensor; ++j) {
-            double resp = response(-beams[j].d);
+            Vec3 v = -beams[j].d;
+            if (radius > 0.0) {
+                const Frame f(v);
+                const double rho = radius * std::sqrt(rng.uniform()), phi = 2.0 * kPi * rng.uniform();
+                v = normalize(v + (f.s * std::cos(phi) + f.t * std::sin(phi)) * std::tan(rho));
+            }
+            double resp = response(v);
             if (resp > 0.0)
                 for (int k = 0; k < nbands; ++k) out[4].v[k] += resp * beams[j].e.v[k];
         }

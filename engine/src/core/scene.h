@@ -34,6 +34,11 @@ constexpr double kBeamGuide = 0.25;
 // (without that, a path that arrives straight at the beam's reverse by its phase function alone
 // is the heavy tail the guide exists to remove).
 constexpr double kGuidedWeightScale = 2.0;
+// A continuation whose direction the beam-direction pdf (the phase function around a beam's
+// reverse) gives more than this density (sr^-1; 12 times an isotropic one, within ~10 deg of
+// the refracted sun's reverse in ocean water) heads into the beam's forward peak: Russian
+// roulette is skipped there (Scene::trace_path).
+constexpr double kBeamPeakPdf = 1.0;
 
 struct Material {  // Lambertian, optionally textured and emitting
     Spectrum reflectance;  // (textured: the texture's mean, for what has no texture coordinates)
@@ -338,6 +343,21 @@ public:
                      Counters& c, double first_beam_weight = 1.0, bool camera = false,
                      bool reflect_covered = false) const;
     bool has_beams() const { return flat_beam || !prisms.empty(); }
+    // The phase function `phase` seen by a beam's light (1/sr at x = 1 - cos psi): with the
+    // sun-disk blur, averaged over the refracted sun's disk (a cap of angular radius
+    // beam_disk_radius around the beam's direction), which bounds the forward peak at about
+    // its mean over the cap (a beam of the centre's direction alone would meet the peak's
+    // singular tip: the rare, huge single-scattering samples along views towards the sun);
+    // otherwise, and beyond kDiskPhaseReach radii, the phase function itself.
+    double beam_phase(int phase, double x) const {
+        if (!disk_phase_.empty() && x < disk_phase_x_max_) return disk_phase_eval(phase, x);
+        return phases[phase].eval(x);
+    }
+    // radians: the refracted sun's disk in the water as a circle of the solid angle a level
+    // surface gives it (sqrt(cos i / cos t) times the sun's radius / ior); 0: no blur
+    double beam_disk_radius = 0.0;
+    static constexpr double kDiskPhaseReach = 12.0;
+    static constexpr int kDiskPhaseNodes = 384;
     bool has_air_beams() const { return flat_air_beam || !air_prisms.empty(); }
     // Beam single scattering seen from o along d over [0, T] in water `medium` (per band,
     // without the throughput), one distance sample.
@@ -580,6 +600,11 @@ private:
     void build_beams_now(const Vec3& sun_direction, int threads, double facet_u1, double facet_u2, bool keep_prisms);
     // The prisms now held were built (whole) for the sun's centre with the blur.
     bool blurred_prisms_built_ = false;
+    // beam_phase's tables: per phase function, the cap means at psi_i = i reach / nodes.
+    std::vector<std::vector<double>> disk_phase_;
+    double disk_phase_x_max_ = 0.0, disk_phase_step_ = 0.0;
+    void make_disk_phases(double radius);
+    double disk_phase_eval(int phase, double x) const;
     // The disk blur's margins of the current prisms for build_grid (per prism: a + g |z|).
     std::vector<double> blur_margin_a_, blur_margin_g_;
     void blur_margins(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys);

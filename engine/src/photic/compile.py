@@ -105,6 +105,7 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
     core.max_depth = int(scene.settings.max_depth if max_depth is None else max_depth)
     core.hybrid = bool(hybrid)
     core.beam_max_level = int(scene.settings.beam_max_level)
+    core.beam_sun_blur = bool(scene.settings.sun_disk_blur)
 
     mat_index = {}
     for name, mat in scene.materials.items():

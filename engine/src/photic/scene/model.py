@@ -512,6 +512,9 @@ class Settings(_ArrayEq):
     threads: int = 0
     forward_cone_deg: float | str = "auto"  # half-angle kept in the beams, or "auto"
     beam_max_level: int = 5    # adaptive subdivision levels of a water-surface triangle
+    # beams spread over the sun's disk, built once for its centre (False: a direction drawn
+    # in the disk per pass, the average doing the spreading)
+    sun_disk_blur: bool = True
     target_error: float | None = None  # relative standard error at which radiometers stop
     noise_threshold: float | None = None  # relative standard error at which pixels stop
     adaptive_min_samples: int = 16     # samples per pixel before a pixel may stop

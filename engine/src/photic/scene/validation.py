@@ -785,6 +785,8 @@ def _validate_settings(s: Settings) -> None:
         check_parameter("settings", f"settings.{key}", getattr(s, key))
     if s.forward_cone_deg != "auto":
         check_parameter("settings", "settings.forward_cone_deg", s.forward_cone_deg)
+    if not isinstance(s.sun_disk_blur, (bool, np.bool_)):
+        raise SceneError("settings", "sun_disk_blur", f"must be true or false, got {_show(s.sun_disk_blur)}")
     for key in ("target_error", "noise_threshold"):
         if getattr(s, key) is not None:
             check_parameter("settings", f"settings.{key}", getattr(s, key))

@@ -149,6 +149,7 @@ def _scene_to_dict(s: Scene) -> dict:
                      "threads": int(s.settings.threads),
                      "forward_cone_deg": s.settings.forward_cone_deg,
                      "beam_max_level": int(s.settings.beam_max_level),
+                     "sun_disk_blur": bool(s.settings.sun_disk_blur),
                      **({} if s.settings.target_error is None else
                         {"target_error": float(s.settings.target_error)}),
                      **({} if s.settings.noise_threshold is None else
