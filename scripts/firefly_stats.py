@@ -15,8 +15,9 @@ import OpenEXR
 def passes(path: str) -> tuple[np.ndarray, np.ndarray]:
     channels = OpenEXR.File(path).parts[0].channels
     pick = {k.split(".", 1)[-1]: v.pixels for k, v in channels.items()}
-    return (np.asarray(pick["Noisy Image"], float)[..., :3],
-            np.asarray(pick["Photic Variance"], float)[..., :3])
+    # (the image before the denoiser; without Denoise on, Combined is that image)
+    image = pick["Noisy Image"] if "Noisy Image" in pick else pick["Combined"]
+    return (np.asarray(image, float)[..., :3], np.asarray(pick["Photic Variance"], float)[..., :3])
 
 
 def band_stats(mean: np.ndarray, var: np.ndarray) -> dict:

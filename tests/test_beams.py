@@ -381,7 +381,8 @@ def test_beams_meet_the_phase_function_averaged_over_the_suns_disk():
 
 
 def test_radiance_caps_smaller_than_the_sun_see_their_share_of_its_disk():
-    """A radiance radiometer looking straight at the refracted sun below a flat sea, with a cap
+    """A radiance radiometer looking straight at the refracted sun below a level patch (prisms),
+    with a cap
     smaller than the sun's refracted disk: with the blur (each sample takes the direct beam at a
     point of the disk's image, a circle of the image's solid angle) it reads the cap's share of
     the disk, cap^2 / (the image's semi-axes' product) of the beam's irradiance over the cap's
@@ -394,9 +395,11 @@ def test_radiance_caps_smaller_than_the_sun_see_their_share_of_its_disk():
     ci = np.cos(np.radians(zen))
     a_w = np.radians(0.53 / 2) / 1.34 * np.sqrt(ci / mu_w)  # sqrt(in-plane x across radius)
     results = {}
+    v, t = wave_patch(amp=0.0)
     for blur in (True, False):
         d = {"photic_scene": 1, "name": "cap",
-             "water": [{"name": "sea", "type": "ocean", "surface": {"kind": "flat"}, "iops": {"absorption": [0.05]}}],
+             "water": [{"name": "sea", "type": "ocean", "iops": {"absorption": [0.05]},
+                        "surface": {"kind": "patch", "vertices": v, "triangles": t, "period": [1.0, 1.0]}}],
              "sun": {"zenith_deg": zen, "azimuth_deg": 0.0, "irradiance": [1.0]},
              "radiometers": [{"name": f"L{h}", "quantity": "radiance", "position": [0, 0, -1.0],
                               "direction": up, "half_angle_deg": h} for h in (0.05, 0.1, 0.5)],

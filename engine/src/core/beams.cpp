@@ -450,21 +450,23 @@ void Scene::build_beams_now(const Vec3& sun_direction, int threads, double facet
     flat_d.clear();
     flat_e0.clear();
     if (!has_sun) return;
-    // With the blur every beam is the sun centre's (a flat sea's analytic ones too: their
-    // spread over the disk, in place and in direction, is the blur's and beam_phase's), and
-    // only the shadow rays take the pass's direction (penumbrae).
-    beam_sun_dir = normalize(sun_direction);
-    const Vec3 s = blur ? normalize(sun_dir) : beam_sun_dir;
+    // With the blur the prisms are the sun centre's, spread over the disk (in place, and in
+    // direction by beam_phase); the shadow rays and a flat sea's analytic beams (cheap, and
+    // exact averaged over the passes) take the pass's direction.
+    const Vec3 s = normalize(sun_direction);
+    beam_sun_dir = s;
+    const Vec3 centre = blur ? normalize(sun_dir) : s;
     {
         // The refracted disk as a circle of the solid angle that a level surface gives it: the
         // sun's radius over n across the plane of incidence, times cos(i) / (n cos(t)) in it.
         const double ior = waters.empty() ? 1.34 : waters[ocean_water >= 0 ? ocean_water : 0].ior;
-        const double ci = std::clamp(s.z, 0.0, 1.0);
+        const double ci = std::clamp(centre.z, 0.0, 1.0);
         const double ct = std::sqrt(std::max(0.0, 1.0 - (1.0 - ci * ci) / (ior * ior)));
         const double radius = blur && ci > 0.0
                               ? std::acos(std::clamp(sun_cos_half, -1.0, 1.0)) / ior * std::sqrt(ci / ct) : 0.0;
-        if (radius != beam_disk_radius || disk_phase_.size() != (radius > 0.0 ? phases.size() : 0))
-            make_disk_phases(radius);
+        if (radius != beam_disk_radius || cone_half_angle != disk_phase_cone_ ||
+            disk_phase_.size() != (radius > 0.0 ? phases.size() : 0))
+            make_disk_phases(radius, cone_half_angle);
     }
     {   // refracted sun below a level surface, for sampling along segments
         double n = waters.empty() ? 1.34 : waters[ocean_water >= 0 ? ocean_water : 0].ior;
@@ -534,13 +536,13 @@ void Scene::build_beams_now(const Vec3& sun_direction, int threads, double facet
         flat_air_beam = F > 0.0;
     }
 
-    if (keep) return;  // (the prisms kept; the shadow rays take beam_sun_dir)
+    if (keep) return;  // (the prisms kept; the shadow rays and flat beams took s)
     if (blur) {
         // The prisms of the sun's centre, each spread over the disk's image: built once for
         // every pass (which keep_prisms then asks for), with a grid of their own whose marks
         // reach as far as the blur does.
-        make_prisms(s, e_sun, false, threads, 0.5, 0.0, &prisms, nullptr, true);
-        if (need_air) make_prisms(s, e_sun, true, threads, 0.5, 0.0, &air_prisms, nullptr, true);
+        make_prisms(centre, e_sun, false, threads, 0.5, 0.0, &prisms, nullptr, true);
+        if (need_air) make_prisms(centre, e_sun, true, threads, 0.5, 0.0, &air_prisms, nullptr, true);
         water_grid_ = &grid_;
         make_keys(prisms, &prism_keys_);
         blur_margins(prisms, prism_keys_);
@@ -780,25 +782,27 @@ void Scene::make_keys(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>*
     }
 }
 
-void Scene::make_disk_phases(double a) {
+void Scene::make_disk_phases(double a, double cone) {
     // p_a(psi) = (1 / pi a^2) int over the cap of radius a around psi's direction of p: in
     // polar coordinates about the peak's tip (small angles: the cap a plane disk at distance
     // psi), the circle of radius rho lies in the cap over an angle theta(rho), so
-    // p_a(psi) = (1 / pi a^2) int p(rho) rho theta(rho) d rho over |psi - a| .. psi + a.
+    // p_a(psi) = (1 / pi a^2) int p(rho) rho theta(rho) d rho over |psi - a| .. psi + a,
+    // p taken as 0 within the forward cone (radius `cone`).
     beam_disk_radius = a;
+    disk_phase_cone_ = cone;
     disk_phase_.assign(phases.size(), {});
     if (!(a > 0.0)) {
         disk_phase_.clear();
         disk_phase_x_max_ = 0.0;
         return;
     }
-    const double reach = kDiskPhaseReach * a;
+    const double reach = cone + kDiskPhaseReach * a;
     disk_phase_step_ = reach / kDiskPhaseNodes;
     disk_phase_x_max_ = 2.0 * std::pow(std::sin(0.5 * reach), 2);
     const int steps = 4000;
     for (size_t pi = 0; pi < phases.size(); ++pi) {
         const PhaseFunction& ph = phases[pi];
-        auto p = [&](double rho) { return ph.eval(2.0 * std::pow(std::sin(0.5 * rho), 2)); };
+        auto p = [&](double rho) { return rho < cone ? 0.0 : ph.eval(2.0 * std::pow(std::sin(0.5 * rho), 2)); };
         std::vector<double>& tab = disk_phase_[pi];
         tab.resize(kDiskPhaseNodes + 1);
         for (int i = 0; i <= kDiskPhaseNodes; ++i) {
@@ -824,7 +828,7 @@ void Scene::make_disk_phases(double a) {
         // (joined to the phase function at the table's end: the cap's mean differs from the
         // value there by ~(a / psi)^2 of it, 1e-2 at most; scaled so that nothing jumps)
         const double end = p(reach), last = tab[kDiskPhaseNodes];
-        for (int i = 0; i <= kDiskPhaseNodes; ++i) {
+        for (int i = 0; i <= kDiskPhaseNodes && last > 0.0; ++i) {
             const double f = double(i) / kDiskPhaseNodes;
             tab[i] *= 1.0 + f * f * (end / last - 1.0);
         }
@@ -1368,6 +1372,7 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
     }
     out->d = d;
     out->l = l;
+    out->spread = P.blur_det > 0.0;
     if (P.water < 0) {  // reflected into the air: nothing attenuates it
         for (int k = 0; k < nbands; ++k) out->e.v[k] = P.phi.v[k] / (a_eff * md);
         return true;
@@ -1401,6 +1406,7 @@ int Scene::flat_beams_at(const Vec3& x, int medium, BeamSample* out, int max, bo
                 out[n].d = flat_air_d;
                 out[n].e = flat_air_e;
                 out[n].l = l;
+                out[n].spread = false;
                 ++n;
             }
         }
@@ -1420,6 +1426,7 @@ int Scene::flat_beams_at(const Vec3& x, int medium, BeamSample* out, int max, bo
             if (visible) {
                 out[n].d = fd;
                 out[n].l = l;
+                out[n].spread = false;
                 // Attenuated from the surface down to x. In gridded water only the part of the
                 // ray between the heights where it may meet density is walked (none if it
                 // meets none: the shadow map of the beams' directions says).

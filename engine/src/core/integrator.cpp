@@ -88,11 +88,16 @@ void Scene::beam_scatter_sum(const Vec3& o, const Vec3& d, double t, double pdf,
     }
     const double cone_x = 1.0 - std::cos(cone_half_angle);
     const size_t nc = w.components.size();
+    const bool spread_phase = beam_phase_spread();
     for (int j = 0; j < n; ++j) {
         double xs = std::max(0.0, 1.0 + dot(beams[j].d, d));  // 1 - cos(psi)
-        if (xs < cone_x) continue;  // inside the cone the light stays in the beam
         double pv[16];
-        for (size_t ci = 0; ci < nc; ++ci) pv[ci] = beam_phase(w.components[ci].phase, xs);
+        if (beams[j].spread && spread_phase) {  // (the cone is in the disk's mean)
+            for (size_t ci = 0; ci < nc; ++ci) pv[ci] = beam_phase(w.components[ci].phase, xs);
+        } else {
+            if (xs < cone_x) continue;  // inside the cone the light stays in the beam
+            for (size_t ci = 0; ci < nc; ++ci) pv[ci] = phases[w.components[ci].phase].eval(xs);
+        }
         double bp[kMaxBands] = {};  // b p per band
         w.add_scattering(local, pv, nbands, bp);
         for (int kb = 0; kb < nbands; ++kb) out->v[kb] += att[kb] * bp[kb] * beams[j].e.v[kb] / pdf;
@@ -909,16 +914,17 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
     }
     if (sensor_beams || sensor_air_beams) {
         // The refracted (or, in the air, reflected) sun at the radiometer itself, in closed form.
-        // With the sun-disk blur every beam is the sun centre's: a radiance or a radiance
-        // distribution, whose response steps at its cap's or bin's edge, takes it at a point
-        // drawn in the disk's image around the beam (a cap of the refracted radius in water,
-        // of the sun's own in the air), as the passes' directions drawn in the disk did.
+        // A spread beam (the sun centre's prism holding the whole disk): a radiance or a
+        // radiance distribution, whose response steps at its cap's or bin's edge, takes it at a
+        // point drawn in the disk's image around the beam (a cap of the refracted image's solid
+        // angle in water, of the sun's own in the air), as passes drawing their directions in
+        // the disk do for the other beams.
         const bool stepped = r.quantity == Quantity::kRadiance || r.quantity == Quantity::kRadianceDistribution;
         const double radius = !stepped || !sun_blur_active() ? 0.0
                               : r.medium >= 0 ? beam_disk_radius : std::acos(std::clamp(sun_cos_half, -1.0, 1.0));
         for (int j = 0; j < n_at_sensor; ++j) {
             Vec3 v = -beams[j].d;
-            if (radius > 0.0) {
+            if (radius > 0.0 && beams[j].spread) {
                 const Frame f(v);
                 const double rho = radius * std::sqrt(rng.uniform()), phi = 2.0 * kPi * rng.uniform();
                 v = normalize(v + (f.s * std::cos(phi) + f.t * std::sin(phi)) * std::tan(rho));

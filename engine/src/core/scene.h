@@ -117,6 +117,10 @@ struct BeamSample {
     Vec3 d;
     Spectrum e;
     double l = 0.0;  // its path length in the water, from where it entered to the point
+    // It holds the sun's whole disk (a prism spread by the blur): its light scatters with
+    // Scene::beam_phase and reaches a radiometer from the disk's image. Otherwise (a flat sea's
+    // analytic beam, sharp prisms) it is one direction drawn in the disk for the pass.
+    bool spread = false;
 };
 
 // A prism of refracted sunlight below one water-surface triangle (Watt 1990; Nishita &
@@ -349,10 +353,14 @@ public:
     // its mean over the cap (a beam of the centre's direction alone would meet the peak's
     // singular tip: the rare, huge single-scattering samples along views towards the sun);
     // otherwise, and beyond kDiskPhaseReach radii, the phase function itself.
+    // With a forward cone the mean is that of the phase function outside the cone (the light
+    // within the cone of each of the disk's directions stays in the beam), and x < the cone's
+    // is no longer out of reach.
     double beam_phase(int phase, double x) const {
         if (!disk_phase_.empty() && x < disk_phase_x_max_) return disk_phase_eval(phase, x);
         return phases[phase].eval(x);
     }
+    bool beam_phase_spread() const { return !disk_phase_.empty(); }
     // radians: the refracted sun's disk in the water as a circle of the solid angle a level
     // surface gives it (sqrt(cos i / cos t) times the sun's radius / ior); 0: no blur
     double beam_disk_radius = 0.0;
@@ -602,8 +610,8 @@ private:
     bool blurred_prisms_built_ = false;
     // beam_phase's tables: per phase function, the cap means at psi_i = i reach / nodes.
     std::vector<std::vector<double>> disk_phase_;
-    double disk_phase_x_max_ = 0.0, disk_phase_step_ = 0.0;
-    void make_disk_phases(double radius);
+    double disk_phase_x_max_ = 0.0, disk_phase_step_ = 0.0, disk_phase_cone_ = -1.0;
+    void make_disk_phases(double radius, double cone);
     double disk_phase_eval(int phase, double x) const;
     // The disk blur's margins of the current prisms for build_grid (per prism: a + g |z|).
     std::vector<double> blur_margin_a_, blur_margin_g_;
