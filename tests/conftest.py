@@ -66,7 +66,7 @@ def pytest_addoption(parser):
 def _gate_markdown(session_seconds: float, outcome: str) -> str:
     lines = [f"Run: `.venv/bin/python -m pytest -m gate`, {outcome}, {session_seconds / 60:.1f} min.", ""]
     if _CALIBRATION:
-        lines += ["Error bars: spread of 16 seeds' means / median reported standard error "
+        lines += ["Error bars: spread of 32 (pixels: 16) seeds' means / median reported standard error "
                   "(flagged: seeds whose error Photic marked as not to be trusted).", "",
                   "| scene | quantity | samples | spread / SE | flagged |", "| --- | --- | --- | --- | --- |"]
         lines += [f"| {sc} | {q} | {n:,} | {r:.2f} | {f} |" for sc, q, n, r, f in _CALIBRATION]

@@ -8,8 +8,8 @@ gridded water, glint, the canonical problems at a small budget, error bars) and 
 - the canonical problems 1 and 2 of Mobley et al. (1993), all 36 values (tests/test_problems.py);
 - hybrid against pure path tracing with objects under waves, every irradiance and a radiance,
   in the exact mode and with a forward cone;
-- the standard errors' calibration: the spread of 16 seeds' means against the median reported
-  standard error on four scenes (a flat sea in the exact mode, an oblique sun under waves, a
+- the standard errors' calibration: the spread of 32 (radiometers) or 16 (pixels) seeds'
+  means against the median reported standard error on four scenes (a flat sea in the exact mode, an oblique sun under waves, a
   bottom under strongly scattering water as in problem 6 of Mobley et al. 1993, and image
   pixels under waves). (The exact mode below waves is flagged as untrusted in every run, by
   design: docs/physics.md; it has no calibration to check.)
@@ -34,8 +34,13 @@ from se_calibration import bottom_scene  # noqa: E402
 pytestmark = [pytest.mark.slow, pytest.mark.gate]
 
 SEEDS = range(1, 17)
-RATIO_BAND = (0.7, 1.5)       # the pooled ratio of a scene: 16 seeds x several quantities
-SINGLE_BAND = (0.5, 2.0)      # one quantity's ratio (15 degrees of freedom: about +-18 %)
+# Radiometers: 32 seeds. Their samples are heavy-tailed in exact mode (the top 10 of 4,096
+# samples of Eo at 1 m hold half their variance), which widens the spread of 16 seeds' means
+# well beyond a normal sample's: seeds 1-16 of Eo at 1 m read 0.44 where seeds 17-40 read
+# 0.84-1.1 and the same seeds at other sample indices 0.9.
+RADIOMETER_SEEDS = range(1, 33)
+RATIO_BAND = (0.7, 1.5)       # the pooled ratio of a scene: 32 seeds x several quantities
+SINGLE_BAND = (0.5, 2.0)      # one quantity's ratio (31 degrees of freedom: about +-13 %)
 Z_AGREE = 4.0
 
 
@@ -106,11 +111,11 @@ def sea_scene(surface, zenith, cone, seed):
 
 
 def calibrate(label, make, samples, calibration):
-    """Renders make(seed) for 16 seeds; per radiometer the spread of the means over the median
+    """Renders make(seed) for 32 seeds; per radiometer the spread of the means over the median
     reported error, and pooled over the radiometers whose errors were trusted in most seeds
-    (the root mean square of the ratios: 16 x n seeds' worth of spread, about +-18 % / sqrt(n))."""
+    (the root mean square of the ratios: 32 x n seeds' worth of spread, about +-13 % / sqrt(n))."""
     means, ses, flags = {}, {}, {}
-    for seed in SEEDS:
+    for seed in RADIOMETER_SEEDS:
         sc = make(seed)
         sc.cameras = []
         for r in render(sc, radiometer_samples=samples).radiometers:
@@ -121,7 +126,7 @@ def calibrate(label, make, samples, calibration):
     for name in means:
         ratio = float(np.std(means[name], ddof=1) / np.median(ses[name]))
         calibration(label, name, samples, ratio, flags[name])
-        if flags[name] <= len(SEEDS) // 2:
+        if flags[name] <= len(RADIOMETER_SEEDS) // 2:
             ratios[name] = ratio
     pooled = float(np.sqrt(np.mean(np.square(list(ratios.values())))))
     calibration(label, "pooled", samples, pooled, len(means) - len(ratios))
