@@ -10,9 +10,10 @@ gridded water, glint, the canonical problems at a small budget, error bars) and 
   in the exact mode and with a forward cone;
 - the standard errors' calibration: the spread of 32 (radiometers) or 16 (pixels) seeds'
   means against the median reported standard error on four scenes (a flat sea in the exact
-  mode, an oblique sun under waves, a bottom under strongly scattering water as in problem 6 of Mobley et al. 1993, and image
-  pixels under waves). (The exact mode below waves is flagged as untrusted in every run, by
-  design: docs/physics.md; it has no calibration to check.)
+  mode, an oblique sun under waves, a bottom under strongly scattering water as in problem 6
+  of Mobley et al. 1993, and image pixels under waves). (The exact mode below waves is
+  flagged as untrusted in every run, by design: docs/physics.md; it has no calibration to
+  check.)
 
 Every change to the integrators, the beams or the radiometers runs it before it lands. Its
 results (z-scores and calibration ratios) are printed at the end of the run, and with
