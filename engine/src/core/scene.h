@@ -283,9 +283,15 @@ public:
     // analytic beams follow sun_direction: one build per render instead of one per pass.
     void build_beams(const Vec3& sun_direction, int threads, double facet_u1 = 0.5, double facet_u2 = 0.0,
                      bool keep_prisms = false);
-    // Whether builds spread each prism over the sun's disk (beam_sun_blur, a sun of finite size,
-    // no rough sea).
-    bool sun_blur_active() const { return beam_sun_blur && !ocean_rough && sun_cos_half < 1.0; }
+    // Whether builds spread each prism over the sun's disk (beam_sun_blur, a sun of finite size
+    // up to kMaxBlurRadius, no rough sea). The spreading is first order in the disk's radius:
+    // ~1e-5 of the irradiance for the real sun (0.27 deg), a few per cent for the 20 deg suns
+    // that tests give path tracing to find, whose images also cover tens of small prisms per
+    // point; beyond 1 deg every pass draws its direction instead.
+    static constexpr double kMaxBlurRadius = 0.017453292519943295;  // 1 deg
+    bool sun_blur_active() const {
+        return beam_sun_blur && !ocean_rough && sun_cos_half < 1.0 && sun_cos_half >= std::cos(kMaxBlurRadius);
+    }
     // Every beam covering x (in water body `medium`, or -1: the reflected beams in the air);
     // returns how many were written (<= max).
     // exact = false: in stratified or gridded water each beam's irradiance is attenuated with
