@@ -952,7 +952,16 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
             drifts.push_back(dr);
         }
     }
-    const double width = median(widths);
+    double width = median(widths);
+    if (margin_a) {
+        // Cells at least as wide as the typical margin at the grid's deepest point: a margin
+        // many cells wide marks (margin / cell)^2 cells per prism and layer (the sun-disk blur
+        // under a 1 mm patch: gigabytes of marks before the copies' bound could refuse it).
+        const double zdeep = std::max(std::fabs(lo.z), std::fabs(hi.z));
+        std::vector<double> margins(prisms.size());
+        for (size_t pi = 0; pi < prisms.size(); ++pi) margins[pi] = margin(pi, zdeep, zdeep);
+        width = std::max(width, median(margins));
+    }
     const double drift = drifts.empty() ? 1.0 : median(drifts);
     if (margin_a) {  // widened by the largest margin of any layer (layers reach a cell beyond)
         const double zmax = std::max(std::fabs(lo.z), std::fabs(hi.z)) + (hi.z - lo.z);
