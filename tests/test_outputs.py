@@ -115,6 +115,39 @@ def test_radiometer_tables_have_components_that_sum_to_value(flat_result):
         assert all(np.array(comps[c]["stderr"]).shape == total.shape for c in COMPONENTS)
 
 
+def test_csv_rows_are_the_table_rows_cell_for_cell(tmp_path):
+    """The CSV is written a column at a time (10^6 bins in seconds): it must hold exactly the
+    rows of iter_radiometer_rows, also where values are not finite, not trusted, a component
+    is missing, a name would be a spreadsheet formula and a radiometer has bins."""
+    import copy
+
+    from photic.output import CSV_FIELDS, _cell, iter_radiometer_rows, write_radiometer_csv
+
+    d = base_scene({"kind": "flat", "z": 0.0})
+    d["cameras"] = []
+    d["radiometers"] = [{"name": "=Ed", "quantity": "Ed", "position": [0.8, 0.3, -1.0]},
+                        {"name": "L", "quantity": "radiance_distribution", "position": [0.1, 0.0, -2.0],
+                         "polar_bins": 6, "azimuth_bins": 8},
+                        {"name": "Lu", "quantity": "radiance", "position": [0.9, -0.6, -1.0]}]
+    d["settings"]["radiometer_samples"] = 512
+    result = copy.deepcopy(render(Scene.from_dict(d), threads=2))
+    ed, dist, lu = result.radiometers
+    ed.mean[0, 1] = np.nan
+    dist.stderr[5, 0] = np.inf
+    dist.reliable = np.ones_like(dist.mean, bool)
+    dist.reliable[7, 1] = False
+    dist.notes = ["heavy tails"]
+    lu.components.pop("path")
+    path = write_radiometer_csv(tmp_path, result)
+    got = list(csv.reader(line for line in open(path, newline="") if not line.startswith("#")))
+    assert got[0] == CSV_FIELDS
+    want = [[str(_cell(row.get(k, ""))) for k in CSV_FIELDS] for row in iter_radiometer_rows(result)]
+    assert len(want) == (1 + 48 + 1) * 2
+    assert got[1:] == want
+    assert got[1][0] == "'=Ed" and got[2][CSV_FIELDS.index("value")] == ""
+    assert got[1 + 2 + 7 * 2 + 1][CSV_FIELDS.index("stderr_note")] == "heavy tails"
+
+
 def test_beam_mesh_of_a_wavy_ocean(tmp_path):
     d = base_scene(wavy_patch(), bottom=3.0, name="wavy")
     d["meshes"] = []  # every ray reaches the bottom
