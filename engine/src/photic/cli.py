@@ -222,7 +222,7 @@ def cmd_bench(args) -> int:
                   file=sys.stderr)
             return 2
         out = run_speed_bench(cases, quick=args.quick, threads=max(args.threads), plot=plot or None,
-                              print_table=not args.json, progress=say)
+                              print_table=not args.json, progress=say, examples_width=args.examples_width)
         if args.json:
             print(json.dumps(out, indent=1, default=float))
         return 0
@@ -503,7 +503,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --error: comma-separated cases among problem2, pool (32x24), pool256 "
                         "(the 256x256 pool view: time to 5 %% and CPU-s per sample), waves (256 Ed "
                         "radiometers under a wave patch against a flat sea), cycles (Cycles' CPU-s "
-                        "per sample on the pool view, when bpy is present); default: all")
+                        "per sample on the pool view, when bpy is present), examples (every example "
+                        "scene's image at --examples-width pixels across: time to 5 %% image RMS and "
+                        "median pixel error, and its error bars against 12 seeds' spread; the .blend "
+                        "examples when bpy is present); default: all")
+    b.add_argument("--examples-width", type=int, default=240,
+                   help="with --cases examples: the images' width in pixels (aspect kept; default 240)")
     b.add_argument("--plot", default=None,
                    help="with --error: PNG plot of error against time (default: docs/images/bench_error.png); "
                         "with --large: time and memory against triangles (default: "
