@@ -10,6 +10,7 @@
 #include <array>
 #include <cmath>
 #include <thread>
+#include "disk_overlap.h"
 #include "optics.h"
 #include "parallel.h"
 #include "scene.h"
@@ -1204,66 +1205,6 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
     }
 }
 
-namespace {
-
-// The area of the triangle (u_j, v_j) within the unit disk around the origin: exactly pi when
-// the disk lies within the triangle. Summed per edge a -> b over the triangle (origin, a, b)
-// cut by the circle: its straight parts inside, circular sectors outside (signed).
-double unit_disk_triangle_overlap(const double u[3], const double v[3]) {
-    if (std::min({u[0], u[1], u[2]}) >= 1.0 || std::max({u[0], u[1], u[2]}) <= -1.0 ||
-        std::min({v[0], v[1], v[2]}) >= 1.0 || std::max({v[0], v[1], v[2]}) <= -1.0)
-        return 0.0;
-    const double twice = (u[1] - u[0]) * (v[2] - v[0]) - (u[2] - u[0]) * (v[1] - v[0]);
-    bool all_in = true, far_edges = twice != 0.0;
-    for (int j = 0; j < 3; ++j) {
-        all_in = all_in && u[j] * u[j] + v[j] * v[j] <= 1.0;
-        const int k = (j + 1) % 3;
-        const double eu = u[k] - u[j], ev = v[k] - v[j];
-        // the origin's distance from the edge's line, positive inside
-        const double dist = (eu * (-v[j]) - ev * (-u[j])) * (twice > 0.0 ? 1.0 : -1.0);
-        far_edges = far_edges && dist > 0.0 && dist * dist >= eu * eu + ev * ev;
-    }
-    if (far_edges) return kPi;
-    if (all_in) return 0.5 * std::fabs(twice);
-    double sum = 0.0;
-    for (int j = 0; j < 3; ++j) {
-        const int k = (j + 1) % 3;
-        const double au = u[j], av = v[j], du = u[k] - au, dv = v[k] - av;
-        const double dd = du * du + dv * dv;
-        if (!(dd > 0.0)) continue;
-        // |a + t d|^2 = 1: the segment's crossings of the circle, in (0, 1)
-        double ts[4] = {0.0, 0.0, 0.0, 1.0};
-        int nt = 1;
-        const double b = au * du + av * dv, c = au * au + av * av - 1.0;
-        const double disc = b * b - dd * c;
-        if (disc > 0.0) {
-            const double r = std::sqrt(disc);
-            const double q = b >= 0.0 ? -(b + r) : -(b - r);  // (stable roots)
-            double t1 = q / dd, t2 = q != 0.0 ? c / q : t1;
-            if (t1 > t2) std::swap(t1, t2);
-            if (t1 > 0.0 && t1 < 1.0) ts[nt++] = t1;
-            if (t2 > 0.0 && t2 < 1.0) ts[nt++] = t2;
-        }
-        ts[nt++] = 1.0;
-        for (int i = 0; i + 1 < nt; ++i) {
-            const double pu = au + du * ts[i], pv = av + dv * ts[i];
-            const double qu = au + du * ts[i + 1], qv = av + dv * ts[i + 1];
-            const double mu = 0.5 * (pu + qu), mv = 0.5 * (pv + qv);
-            const double cr = pu * qv - pv * qu;
-            if (mu * mu + mv * mv <= 1.0)
-                sum += 0.5 * cr;
-            else
-                sum += 0.5 * std::atan2(cr, pu * qu + pv * qv);
-        }
-    }
-    // (a triangle outside the disk leaves sectors that cancel but for rounding, ~1e-16: such
-    // overlaps, and any below 1e-12 of the disk, are none)
-    const double a = std::fabs(sum);
-    return a > 1e-12 ? a : 0.0;
-}
-
-}  // namespace
-
 bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, BeamSample* out,
                        bool exact) const {
     // The slice through y: its corners p_j on the vertex rays (at t_j), its area S along m
@@ -1308,7 +1249,7 @@ bool Scene::prism_eval(const BeamPrism& P, const Vec3& y, const Vec3& world, Bea
     // i.e. the flux over a_blur = area(K) S / area(slice within K), computed where K is the
     // unit disk (ratios of areas are kept). Where K lies within the slice, the sharp value.
     double a_blur = 0.0;
-    if (P.blur_det > 0.0) {
+    if (P.blur_det > 0.0 && exact) {  // (a ranking takes the prism sharp: see beams_at)
         // the blur at the path length of the slice's point nearest y (barycentric coordinates
         // clamped), which also gives the light's direction and path below when y is outside
         const double c0 = std::max(l0, 0.0), c1 = std::max(l1, 0.0), c2 = std::max(l2, 0.0);
@@ -1470,7 +1411,7 @@ namespace {
 // thousand times looser (rounding of the corners here differs from its own by ~1e-16
 // relative), so that it never rejects what prism_eval would accept.
 template <class Key>
-inline bool may_cover(const Key& K, const Vec3& y, int medium, bool shifted) {
+inline bool may_cover(const Key& K, const Vec3& y, int medium, bool shifted, bool blurred) {
     if (K.water != medium) return false;
     if (shifted && !K.periodic) return false;
     if (!K.horizontal) return true;
@@ -1488,6 +1429,7 @@ inline bool may_cover(const Key& K, const Vec3& y, int medium, bool shifted) {
     const double s0 = C > 0.0 ? c0 : -c0, s1 = C > 0.0 ? c1 : -c1;
     const double s2 = (C > 0.0 ? C : -C) - s0 - s1;
     if (!(s0 < tol || s1 < tol || s2 < tol)) return true;
+    if (!blurred) return false;
     // Outside: a blurred prism still reaches y within R of every edge's line (s_k is twice
     // the area of y and edge k: R |edge k| at that distance).
     const double R = double(h >= 0.0 ? K.r_hi : K.r_lo) * h + double(K.r_c);
@@ -1515,13 +1457,13 @@ int Scene::lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey
                   const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const {
     thread_local std::vector<BeamCandidate> found;  // per thread: kept, so rarely grown
     found.clear();
-    find_candidates(prisms, keys, grid, x, medium, &found);
+    find_candidates(prisms, keys, grid, x, medium, &found, exact);
     return eval_candidates(prisms, found.data(), found.size(), x, out, n, max, exact);
 }
 
 void Scene::find_candidates(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys,
                             const BeamGrid& grid, const Vec3& x, int medium,
-                            std::vector<BeamCandidate>* found) const {
+                            std::vector<BeamCandidate>* found, bool blurred) const {
     if (grid.nx == 0) return;
     // Below (or above) the periodic patch the beams of every period meet at x.
     bool periodic = ocean_water >= 0 && !ocean_flat && (medium == ocean_water || medium < 0);
@@ -1549,7 +1491,7 @@ void Scene::find_candidates(const HugeVector<BeamPrism>& prisms, const HugeVecto
             prefetch_cell_keys(grid, rec, keys);
             for (uint32_t k = 0; k < count; ++k) {
                 const uint32_t pi = item(k);
-                if (!may_cover(keys[pi], y, medium, i != 0 || j != 0)) continue;
+                if (!may_cover(keys[pi], y, medium, i != 0 || j != 0, blurred)) continue;
                 const char* pp = reinterpret_cast<const char*>(&prisms[pi]);
                 for (int line = 0; line < kPrismQueryLines; ++line) __builtin_prefetch(pp + 64 * line);
                 found->push_back({pi, int32_t(i), int32_t(j)});

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include "bind_common.h"
+#include "disk_overlap.h"
 #include "scene.h"
 
 namespace photic {
@@ -45,6 +46,16 @@ void bind_test_probes(py::class_<Scene>& scene) {
             rtcReleaseDevice(device);
             check_embree("rtcNewGeometry");
         }, "Raises the EmbreeError that Embree's error callback turned the failure of a call into.")
+        .def_static("unit_disk_triangle_overlap", [](std::array<double, 3> u, std::array<double, 3> v) {
+            return unit_disk_triangle_overlap(u.data(), v.data());
+        }, py::arg("u"), py::arg("v"), "The area of the triangle (u_j, v_j) within the unit disk (the blur's kernel).")
+        .def_static("atan2_fast", [](py::array_t<double, py::array::c_style | py::array::forcecast> y,
+                                     py::array_t<double, py::array::c_style | py::array::forcecast> x) {
+            if (y.size() != x.size()) throw std::invalid_argument("atan2_fast: y and x differ in size");
+            py::array_t<double> out(y.size());
+            for (py::ssize_t i = 0; i < y.size(); ++i) out.mutable_data()[i] = atan2_fast(y.data()[i], x.data()[i]);
+            return out;
+        }, py::arg("y"), py::arg("x"), "The blur's arctangent, elementwise over flat arrays.")
         .def("beam_phase", [](const Scene& s, int phase, double x) {
             if (phase < 0 || size_t(phase) >= s.phases.size()) throw std::invalid_argument("beam_phase: no such phase function");
             return s.beam_phase(phase, x);

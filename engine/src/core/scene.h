@@ -303,9 +303,11 @@ public:
     }
     // Every beam covering x (in water body `medium`, or -1: the reflected beams in the air);
     // returns how many were written (<= max).
-    // exact = false: in stratified or gridded water each beam's irradiance is attenuated with
-    // the top or base layer's coefficients only (no walk through the layers or voxels): enough
-    // to rank the beams, as strongest_beam does.
+    // exact = false: a ranking of the beams, as strongest_beam makes: in stratified or gridded
+    // water each beam's irradiance is attenuated with the top or base layer's coefficients only
+    // (no walk through the layers or voxels), and prisms spread over the sun's disk are taken
+    // sharp (no overlap of the disk's image with the slice to compute, and only the prisms
+    // whose slice holds x).
     int beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool exact = true) const;
     double beam_total_flux() const;   // sum of prism fluxes entering the water (band 0)
     // The most copies of the periodic ocean patch that one beam lookup visits (1 without one):
@@ -643,7 +645,7 @@ private:
     };
     // Appends the candidates at x (in the order lookup evaluates them), their prisms fetched ahead.
     void find_candidates(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
-                         const Vec3& x, int medium, std::vector<BeamCandidate>* found) const;
+                         const Vec3& x, int medium, std::vector<BeamCandidate>* found, bool blurred = true) const;
     // The beams of found[0, count) covering x, appended to out from index n (at most max in all).
     int eval_candidates(const HugeVector<BeamPrism>& prisms, const BeamCandidate* found, size_t count,
                         const Vec3& x, BeamSample* out, int n, int max, bool exact) const;
