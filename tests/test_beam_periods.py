@@ -61,3 +61,36 @@ def test_ordinary_patches_still_render_with_beams():
     res = render(Scene.from_dict(_tiny_patch(size=5.0)), samples=1, radiometer_samples=256)
     assert res.stats["integrator"] == "hybrid"
     assert all(np.isfinite(r.mean).all() for r in res.radiometers)
+
+
+def _tiny_patch_scene(side_m: float, wind: float, surface: str = "waves") -> Scene:
+    waves = {"kind": "waves", "spectrum": "jonswap", "wind_speed": wind, "fetch_m": 50000.0,
+             "patch_size_m": [side_m, side_m], "resolution": [32, 32], "seed": 0}
+    rough = {"kind": "flat", "z": 0.0, "roughness": {"wind_speed": wind}}
+    return Scene.from_dict({
+        "photic_scene": 1, "name": "tiny patch",
+        "materials": {"sand": {"type": "lambertian", "reflectance": [0.3]}},
+        "water": [{"name": "sea", "type": "ocean", "surface": waves if surface == "waves" else rough,
+                   "bottom": {"depth": 5.0, "material": "sand"},
+                   "iops": {"absorption": [0.1], "b": [0.2], "phase": {"type": "petzold"}}}],
+        "sun": {"zenith_deg": 30, "azimuth_deg": 0, "irradiance": [1.0], "angular_diameter_deg": 0.53},
+        "radiometers": [{"name": "r", "quantity": "Ed", "position": [0.0, 0.0, -1.0]}],
+        "settings": {"integrator": "hybrid", "radiometer_samples": 64}})
+
+
+@pytest.mark.parametrize("side_m, wind", [(0.001, 5.0), (0.01, 12.0)])  # (1 mm at 50 m/s: above)
+def test_beams_that_spread_over_too_many_patch_copies_are_refused(side_m, wind):
+    """A patch much smaller than its beams' spread at depth: every lookup would visit each copy
+    of the patch (the 1 mm patch with a 50 m/s wind made no progress in minutes); the hybrid
+    refuses it at its first beam build, naming the patch's size and the alternative, a flat
+    surface with the wind's roughness, which renders."""
+    with pytest.raises(SceneError, match=r"surface\.patch_size_m.*copies of the patch.*roughness"):
+        render(_tiny_patch_scene(side_m, wind), seed=1, threads=1)
+    res = render(_tiny_patch_scene(side_m, wind, "rough"), seed=1, threads=1)
+    assert np.isfinite(res.radiometers[0].mean).all() and res.radiometers[0].mean[0, 0] > 0.1
+
+
+def test_beams_under_a_decimetre_patch_render():
+    """A 0.1 m patch (about 150 copies reach a point 5 m down) is within the bound."""
+    res = render(_tiny_patch_scene(0.1, 12.0), seed=1, threads=1)
+    assert np.isfinite(res.radiometers[0].mean).all() and res.radiometers[0].mean[0, 0] > 0.1

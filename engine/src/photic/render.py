@@ -18,6 +18,7 @@ import numpy as np
 
 from .compile import compile_scene, scene_band_groups
 from .parameters import check_parameter
+from .safe_io import machine_memory
 from .estimates import (CameraSums, RadiometerSums, bin_counts, combine_round_sums,
                         image_variance, mean_stderr)
 from .scene import IOPGrid, IOPProfile, Scene, SceneError, scene_warnings
@@ -278,9 +279,6 @@ def radiometer_passes(samples: int, paired: bool) -> list[tuple[int, int]]:
 MEMORY_SHARE = 0.8  # of the machine's memory a render may plan to use
 
 
-from .safe_io import machine_memory  # noqa: E402  (photic.render.machine_memory too)
-
-
 def render_memory(scene: Scene) -> dict:
     """Bytes the largest buffers of a render will take, per item: each camera's running sums
     (components + total, squares, between-pass sums, samples: float64 per pixel and band) and
@@ -490,11 +488,11 @@ def exact_mode_below_waves(scene: Scene, hybrid: bool, forward_cone_deg: float, 
     """Whether a radiometer in water body ``water_index`` (-1: air) has an error that cannot be
     trusted because it is the hybrid's exact mode (forward cone 0) below a wavy sea.
 
-    There the paths that scatter twice in the phase function's forward peak towards a moving
-    caustic are rare enough that runs of 16,384 samples miss them: over 16 seeds the spread of
-    the means was 3.4-4.7x (Ed 5 m) and 26x (Eo 1 m at an 80 deg sun) the reported error, and
-    few runs noticed through their variance of the variance (docs/verification.md). A forward
-    cone (3 deg) keeps those paths in the beam and its errors honest."""
+    There sunlight that steep facets refract upwards and the next wave reflects down reaches a
+    point only along paths that path tracing rarely finds (the beams end under the wave): over
+    16 seeds of 16,384 samples the spread of Eo's means was 28x (1 m) and 76x (5 m) the
+    reported error under an 80 deg sun, though honest under a 30 deg one (docs/verification.md).
+    With a forward cone (3 deg) the errors are honest at both."""
     if not (hybrid and scene.sun is not None and forward_cone_deg == 0.0 and water_index >= 0):
         return False
     w = scene.water[water_index]
