@@ -67,7 +67,9 @@ def _gate_markdown(session_seconds: float, outcome: str) -> str:
     lines = [f"Run: `.venv/bin/python -m pytest -m gate`, {outcome}, {session_seconds / 60:.1f} min.", ""]
     if _CALIBRATION:
         lines += ["Error bars: spread of 32 (pixels: 16) seeds' means / median reported standard error "
-                  "(flagged: seeds whose error Photic marked as not to be trusted).", "",
+                  "(pixels: / the root mean square of the reported errors, per pixel then its median "
+                  "over pixels, or over the whole image; flagged: seeds whose error Photic marked as "
+                  "not to be trusted).", "",
                   "| scene | quantity | samples | spread / SE | flagged |", "| --- | --- | --- | --- | --- |"]
         lines += [f"| {sc} | {q} | {n:,} | {r:.2f} | {f} |" for sc, q, n, r, f in _CALIBRATION]
         lines.append("")
@@ -89,7 +91,7 @@ def pytest_sessionstart(session):
 def pytest_terminal_summary(terminalreporter, exitstatus=0, config=None):
     tr = terminalreporter
     if _CALIBRATION:
-        tr.section("Error bars: spread of seeds' means / median reported standard error")
+        tr.section("Error bars: spread of seeds' means / median reported standard error (pixels: RMS)")
         tr.write_line(f"{'scene':<40} {'quantity':<18} {'samples':>9} {'ratio':>7} {'flagged':>8}")
         for sc, q, n, r, f in _CALIBRATION:
             tr.write_line(f"{sc[:40]:<40} {q[:18]:<18} {n:9d} {r:7.2f} {f:8d}")

@@ -13,10 +13,16 @@ Each sensor's error is therefore estimated from how its passes are drawn:
   the spread between directions, and keeps most of what stratifying the disk gains. The
   reported error is the larger of it and the per-sample one (which it must exceed but for
   noise; with few pairs the per-sample one is the steadier).
-- **Cameras (hybrid): independent passes of unequal sizes.** Each pass draws its direction
-  independently; per pixel the one-way random-effects analysis of variance (Searle, Casella &
-  McCulloch 1992, ch. 3) splits the spread into within-pass and between-pass parts:
-  var(mean) = s_w^2 / N + s_b^2 sum(n_p^2) / N^2.
+- **Cameras: independent samples.** A pixel's error is its samples' own spread,
+  var(mean) = s^2 / N, in both integrators. Each hybrid pass draws its sun direction (and a
+  rough sea's facet) independently, so samples of one pass share that draw; but measured over
+  12-16 seeds (docs/verification.md) the between-pass part is negligible for pixels (the spread
+  of the seeds' means over this estimate: 0.98-1.01 in variance on the examples, under waves
+  with and without the sun-disk blur and below a rough sea; 1.07 under a 10 deg sun, whose
+  caustics move between passes). The one-way random-effects estimate that split within- and
+  between-pass parts (``image_variance`` with ``b``; Searle, Casella & McCulloch 1992, ch. 3)
+  clipped its noisy between-pass part at zero and so read 1.8-2.9x the variance on all of
+  them; it is no longer used for images.
 - **Everything else** (path tracing, no sun): independent samples, var(mean) = s^2 / N.
 
 An error is flagged as not to be trusted when it rests on too little (fewer than MIN_STRATA

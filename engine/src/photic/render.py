@@ -723,7 +723,9 @@ class Renderer:
         hybrid = self.integrator == "hybrid"
         beams = uses_beams(scene, hybrid)
         result = RenderResult(scene.name, list(scene.bands))
-        cam_sums = self._cam_sums = {c.name: CameraSums((c.resolution[1], c.resolution[0], nc, nb), beams)
+        # A pixel's error from its samples as independent draws (no between-pass term: see
+        # photic.estimates, "Cameras").
+        cam_sums = self._cam_sums = {c.name: CameraSums((c.resolution[1], c.resolution[0], nc, nb), False)
                                      for c in scene.cameras}
         cam_done = self._cam_done = {c.name: 0 for c in scene.cameras}
         self._cam_rows = {c.name: np.zeros(c.resolution[1], np.int64) for c in scene.cameras}

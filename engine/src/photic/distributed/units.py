@@ -238,7 +238,7 @@ class ItemMerger:
         self.nb = nb
         beams = uses_beams(scene, item.integrator == "hybrid")
         self.beams = beams
-        self.cams = {ci: CameraSums((c.resolution[1], c.resolution[0], NC, nb), beams)
+        self.cams = {ci: CameraSums((c.resolution[1], c.resolution[0], NC, nb), False)  # (as Renderer.run)
                      for ci, c in enumerate(scene.cameras)}
         self.cam_samples = {ci: 0 for ci in self.cams}
         self.strata = len(radiometer_passes(item.radiometer_samples, beams)) // 2
