@@ -146,6 +146,16 @@ def test_csv_rows_are_the_table_rows_cell_for_cell(tmp_path):
     assert got[1:] == want
     assert got[1][0] == "'=Ed" and got[2][CSV_FIELDS.index("value")] == ""
     assert got[1 + 2 + 7 * 2 + 1][CSV_FIELDS.index("stderr_note")] == "heavy tails"
+    # built a few bins at a time: the same rows across the chunks' edges
+    from photic.output import _csv_rows
+    assert list(_csv_rows(dist, result.bands, chunk=5)) == list(_csv_rows(dist, result.bands))
+    # the JSON's finite float tables as json.dumps writes each row (written by repr, faster)
+    from photic.output import write_radiometer_json
+    text = write_radiometer_json(tmp_path, result).read_text()
+    for a in (dist.mean, ed.stderr, lu.mean):
+        assert np.isfinite(a).all()
+        assert "[" + ",".join("\n  " + json.dumps(row) for row in a.tolist()) + "]" in text
+    assert json.loads(text)["radiometers"][1]["stderr"][5][0] is None  # (inf: null, the other way)
 
 
 def test_beam_mesh_of_a_wavy_ocean(tmp_path):

@@ -832,14 +832,13 @@ def format_speed_summary(summary: dict) -> str:
 
 
 def run_speed_bench(cases=SPEED_CASES, quick: bool = False, threads: int = 2, plot=DEFAULT_ERROR_PLOT,
-                    side_by_side=DEFAULT_SIDE_BY_SIDE, print_table: bool = True, progress=None,
-                    examples_width: int = 240) -> dict:
+                    side_by_side=DEFAULT_SIDE_BY_SIDE, print_table: bool = True, progress=None) -> dict:
     """``photic bench --error``: error against time (run_error_bench) on the chosen ``cases``
     ("problem2", "pool": the pool at 32 x 24, "pool256": at 256 x 256), the radiometers under
     a family of wave patches against a flat sea ("waves"), and Cycles' CPU seconds per sample on the 256 x 256
-    pool view with the two images side by side ("cycles", when bpy is present) and every
-    example scene's image ("examples": photic.bench_examples). Returns {"records", "waves",
-    "cycles", "examples", "summary"}."""
+    pool view with the two images side by side ("cycles", when bpy is present). Returns
+    {"records", "waves", "cycles", "summary"}. (The "examples" case is
+    photic.bench_examples.run_examples_bench, which the command line runs beside it.)"""
     say = progress or (lambda msg: None)
     chosen = []
     if "problem2" in cases:
@@ -874,12 +873,6 @@ def run_speed_bench(cases=SPEED_CASES, quick: bool = False, threads: int = 2, pl
         side_by_side_png(rgb, cycles["image_rgb"], side_by_side,
                          (f"Photic hybrid, {n} spp", f"Cycles {cycles.get('version', '')}, {n} spp"))
         cycles["side_by_side"] = str(side_by_side)
-    examples = None
-    if "examples" in cases:
-        from .bench_examples import DEFAULT_EXAMPLES_PLOT, run_examples_bench
-        kw = dict(width=48, ref_spp=16, budgets=(2, 4), seeds=4, seed_spp=2) if quick else dict(width=examples_width)
-        examples = run_examples_bench(threads=threads, progress=progress, print_table=print_table,
-                                      plot=DEFAULT_EXAMPLES_PLOT if plot else None, **kw)
     summary = speed_summary(records, waves, cycles)
     if print_table:
         print(format_speed_summary(summary))
@@ -887,4 +880,4 @@ def run_speed_bench(cases=SPEED_CASES, quick: bool = False, threads: int = 2, pl
             print(f"side by side: {cycles['side_by_side']}")
     if cycles is not None:
         cycles.pop("image_rgb", None)
-    return {"records": records, "waves": waves, "cycles": cycles, "examples": examples, "summary": summary}
+    return {"records": records, "waves": waves, "cycles": cycles, "summary": summary}

@@ -222,7 +222,13 @@ def cmd_bench(args) -> int:
                   file=sys.stderr)
             return 2
         out = run_speed_bench(cases, quick=args.quick, threads=max(args.threads), plot=plot or None,
-                              print_table=not args.json, progress=say, examples_width=args.examples_width)
+                              print_table=not args.json, progress=say)
+        if "examples" in cases:  # every example's image (photic.bench_examples)
+            from .bench_examples import DEFAULT_EXAMPLES_PLOT, run_examples_bench
+            kw = (dict(width=48, ref_spp=16, budgets=(2, 4), seeds=4, seed_spp=2) if args.quick
+                  else dict(width=args.examples_width))
+            out["examples"] = run_examples_bench(threads=max(args.threads), progress=say, print_table=not args.json,
+                                                 plot=DEFAULT_EXAMPLES_PLOT if plot else None, **kw)
         if args.json:
             print(json.dumps(out, indent=1, default=float))
         return 0
