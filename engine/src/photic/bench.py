@@ -513,13 +513,19 @@ def _relative_errors(case: ErrorCase, values, ref, ref_var) -> tuple[float, floa
     E|x - ref|^2 = E|x - truth|^2 + Var(ref), so error^2 = raw^2 - noise^2 (floored at 0; see
     :func:`_resolved` for errors below the reference's noise).
     """
-    if case.kind == "radiometers":
-        raw2 = float(np.mean(((values - ref) / ref) ** 2))
-        noise2 = float(np.mean(ref_var / ref ** 2))
-    else:
-        m = float(np.mean(ref))
-        raw2 = float(np.mean((values - ref) ** 2)) / m ** 2
-        noise2 = float(np.mean(ref_var)) / m ** 2
+    if case.kind != "radiometers":
+        return image_relative_error(values, ref, ref_var)
+    raw2 = float(np.mean(((values - ref) / ref) ** 2))
+    noise2 = float(np.mean(ref_var / ref ** 2))
+    return math.sqrt(max(raw2 - noise2, 0.0)), math.sqrt(raw2), math.sqrt(noise2)
+
+
+def image_relative_error(values, ref, ref_var) -> tuple[float, float, float]:
+    """An image's (error, raw error, reference noise) as _relative_errors gives them: RMS over
+    pixels relative to the reference's mean, the reference's own variance removed."""
+    m = float(np.mean(ref))
+    raw2 = float(np.mean((values - ref) ** 2)) / m ** 2
+    noise2 = float(np.mean(ref_var)) / m ** 2
     return math.sqrt(max(raw2 - noise2, 0.0)), math.sqrt(raw2), math.sqrt(noise2)
 
 

@@ -78,7 +78,6 @@ def _with_camera(d: dict, width: int) -> tuple[dict, tuple[int, int]] | None:
     w0, h0 = (int(v) for v in cam.get("resolution", [width, width]))
     cam["resolution"] = [int(width), max(1, int(round(width * h0 / w0)))]
     d = dict(d, cameras=[cam], radiometers=[], radiometer_arrays=[])
-    d.pop("radiometer_grids", None)
     return d, (w0, h0)
 
 
@@ -127,14 +126,15 @@ def image_errors(values, var, ref, ref_var) -> dict:
     RMS error is; ``median_pixel``: the median over lit pixels (above 5 % of the mean) of
     sqrt(var) / ref; ``top_0.1``: the share of the image's reported variance in its noisiest
     0.1 % of pixels."""
+    from .bench import image_relative_error
+
     m = float(np.mean(ref))
-    raw2 = float(np.mean((values - ref) ** 2)) / m ** 2
-    noise2 = float(np.mean(ref_var)) / m ** 2
+    rms, rms_raw, ref_noise = image_relative_error(values, ref, ref_var)
     lit = ref > 0.05 * m
     rel = np.sqrt(np.maximum(var[lit], 0.0)) / ref[lit]
     v = np.sort(var.ravel())[::-1]
     total = float(v.sum())
-    return {"rms": math.sqrt(max(raw2 - noise2, 0.0)), "rms_raw": math.sqrt(raw2), "ref_noise": math.sqrt(noise2),
+    return {"rms": rms, "rms_raw": rms_raw, "ref_noise": ref_noise,
             "reported": math.sqrt(float(np.mean(var))) / m,
             "median_pixel": float(np.median(rel)) if rel.size else float("nan"),
             "top_0.1": float(v[:max(1, v.size // 1000)].sum() / total) if total > 0 else 0.0}
