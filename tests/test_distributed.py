@@ -5,6 +5,7 @@ finished unit."""
 from __future__ import annotations
 
 import json
+import logging
 import os
 import signal
 from pathlib import Path
@@ -76,11 +77,9 @@ def serial(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def cluster():
-    distributed = pytest.importorskip("distributed")
-    import logging
-    cl = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None, silence_logs=logging.CRITICAL)
-    client = distributed.Client(cl)
+    pytest.importorskip("distributed")
+    from photic.distributed.runner import _local_cluster
+    client, cl = _local_cluster(2)  # the cluster `photic batch` starts
     yield client, cl
     client.close()
     cl.close()
@@ -146,6 +145,12 @@ def test_killed_worker_still_identical(serial, cluster, tmp_path):
     assert report.ok and not report.failed
     assert len(report.computed) == len(set(report.computed)) == 54
     _assert_identical(serial[2], _arrays(tmp_path))
+    # The restarted worker logs only critical messages too (a Ctrl-C's closed connections
+    # made the workers print tracebacks to the terminal: issue 49).
+    client.wait_for_workers(2, timeout=60)
+    levels = client.run(lambda: logging.getLogger("distributed.worker").getEffectiveLevel())
+    assert set(client.run(os.getpid).values()) != set(pids.values())
+    assert len(levels) == 2 and set(levels.values()) == {logging.CRITICAL}, levels
 
 
 def test_resume_redoes_no_finished_unit(serial, tmp_path):

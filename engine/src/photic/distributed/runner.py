@@ -246,7 +246,28 @@ def _local_cluster(workers: int):
     finally:
         if main:
             signal.signal(signal.SIGINT, previous)
-    return Client(cluster), cluster
+    client = Client(cluster)
+    client.register_plugin(_quiet_worker_logs())
+    return client, cluster
+
+
+def _quiet_worker_logs():
+    """A worker plugin that leaves only critical messages in a local worker's log. A Ctrl-C
+    that lands while this process reads a unit's result closes the connection under the
+    worker, which then logged 'failed during get data' with a traceback to the terminal; the
+    batch itself reports every unit that fails, with its exception, so the workers' own log is
+    noise here. (A plugin, not a one-off call, so that a restarted worker is quiet too.)"""
+    from distributed import WorkerPlugin
+
+    class QuietWorkerLogs(WorkerPlugin):
+        name = "photic-quiet-worker-logs"
+
+        def setup(self, worker):
+            names = [n for n in logging.root.manager.loggerDict if n.split(".")[0] == "distributed"]
+            for n in ["distributed", *names]:
+                logging.getLogger(n).setLevel(logging.CRITICAL)
+
+    return QuietWorkerLogs()
 
 
 # --- the batch -----------------------------------------------------------------------------
