@@ -242,7 +242,7 @@ def _local_cluster(workers: int):
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
     try:  # (an ignored signal stays ignored in the processes started meanwhile)
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
+                               dashboard_address=None, silence_logs=logging.CRITICAL)
     finally:
         if main:
             signal.signal(signal.SIGINT, previous)
