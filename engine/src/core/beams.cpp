@@ -175,15 +175,8 @@ void Scene::make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int thre
 
     // Bounding boxes of opaque objects: prisms that overlap one test visibility per query.
     std::vector<std::pair<Vec3, Vec3>> object_boxes;
-    for (const auto& m : meshes) {
-        if (m.kind != SurfaceKind::kOpaque) continue;
-        Vec3 lo(kInf, kInf, kInf), hi(-kInf, -kInf, -kInf);
-        for (size_t i = 0; i + 2 < m.vertices.size(); i += 3) {
-            lo = Vec3(std::min(lo.x, double(m.vertices[i])), std::min(lo.y, double(m.vertices[i + 1])), std::min(lo.z, double(m.vertices[i + 2])));
-            hi = Vec3(std::max(hi.x, double(m.vertices[i])), std::max(hi.y, double(m.vertices[i + 1])), std::max(hi.z, double(m.vertices[i + 2])));
-        }
-        object_boxes.push_back({lo, hi});
-    }
+    for (const auto& m : meshes)  // (an instanced mesh: one box around all its copies)
+        if (m.kind == SurfaceKind::kOpaque) object_boxes.push_back(m.world_bounds());
 
     // A vertex ray of the periodic patch meets only what repeats with it (the surface, the
     // bottom): its prism serves every period, and the meshes (which stand in one period only)
@@ -592,12 +585,15 @@ struct NearTriangles {
 
 bool gather_near_triangle(RTCPointQueryFunctionArguments* args) {
     auto* q = static_cast<NearTriangles*>(args->userPtr);
-    const MeshRecord& m = q->scene->meshes[args->geomID];
+    // In a copy of an instanced mesh the ids are the instance array's and the copy's.
+    const bool copy = args->context->instStackSize > 0;
+    const MeshRecord& m = q->scene->meshes[copy ? args->context->instID[0] : args->geomID];
     if (m.kind != SurfaceKind::kOpaque) return false;
     std::array<Vec3, 3> t;
     for (int j = 0; j < 3; ++j) {
         const float* v = &m.vertices[3 * size_t(m.triangles[3 * size_t(args->primID) + j])];
         t[j] = Vec3(v[0], v[1], v[2]);
+        if (copy) t[j] = m.to_world(args->context->instPrimID[0], t[j]);
     }
     for (int a = 0; a < 3; ++a)
         if (std::min({t[0][a], t[1][a], t[2][a]}) > q->hi[a] || std::max({t[0][a], t[1][a], t[2][a]}) < q->lo[a])

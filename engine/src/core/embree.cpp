@@ -195,6 +195,32 @@ RTCScene new_triangle_scene(RTCDevice device, const std::vector<TriangleMeshView
     rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
     try {
         for (const TriangleMeshView& m : meshes) {
+            if (m.instances) {  // the mesh as a scene of its own, placed by an instance array
+                TriangleMeshView own = m;
+                own.instances = nullptr;
+                RTCScene bottom = new_triangle_scene(device, {own});
+                RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_INSTANCE_ARRAY);
+                if (!g) {
+                    rtcReleaseScene(bottom);
+                    check_embree("rtcNewGeometry (instance array)");
+                    throw EmbreeError("Embree could not create an instance array");
+                }
+                rtcSetGeometryInstancedScene(g, bottom);  // (the geometry keeps a reference)
+                rtcReleaseScene(bottom);
+                auto* xb = static_cast<float*>(rtcSetNewGeometryBuffer(
+                    g, RTC_BUFFER_TYPE_TRANSFORM, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, 12 * sizeof(float), m.ninst));
+                if (!xb) {
+                    rtcReleaseGeometry(g);
+                    check_embree("rtcSetNewGeometryBuffer (transforms)");
+                    throw EmbreeError("Embree could not allocate an instance array's transforms");
+                }
+                std::memcpy(xb, m.instances, 12 * m.ninst * sizeof(float));
+                rtcCommitGeometry(g);
+                rtcAttachGeometry(scene, g);
+                rtcReleaseGeometry(g);
+                check_embree("adding an instance array");
+                continue;
+            }
             RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
             check_embree("rtcNewGeometry");
             auto* vb = static_cast<float*>(

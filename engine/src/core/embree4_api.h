@@ -37,10 +37,10 @@ typedef struct RTCSceneTy* RTCScene;
 typedef struct RTCGeometryTy* RTCGeometry;
 
 // Enums: only the values used; C enums are int-sized in the library's ABI.
-enum RTCFormat : int { RTC_FORMAT_UINT3 = 0x5003, RTC_FORMAT_FLOAT3 = 0x9003 };
+enum RTCFormat : int { RTC_FORMAT_UINT3 = 0x5003, RTC_FORMAT_FLOAT3 = 0x9003, RTC_FORMAT_FLOAT3X4_ROW_MAJOR = 0x9134 };
 enum RTCBuildQuality : int { RTC_BUILD_QUALITY_LOW = 0, RTC_BUILD_QUALITY_MEDIUM = 1, RTC_BUILD_QUALITY_HIGH = 2 };
-enum RTCBufferType : int { RTC_BUFFER_TYPE_INDEX = 0, RTC_BUFFER_TYPE_VERTEX = 1 };
-enum RTCGeometryType : int { RTC_GEOMETRY_TYPE_TRIANGLE = 0 };
+enum RTCBufferType : int { RTC_BUFFER_TYPE_INDEX = 0, RTC_BUFFER_TYPE_VERTEX = 1, RTC_BUFFER_TYPE_TRANSFORM = 23 };
+enum RTCGeometryType : int { RTC_GEOMETRY_TYPE_TRIANGLE = 0, RTC_GEOMETRY_TYPE_INSTANCE_ARRAY = 122 };
 enum RTCSceneFlags : int { RTC_SCENE_FLAG_NONE = 0, RTC_SCENE_FLAG_ROBUST = 1 << 2 };
 enum RTCDeviceProperty : int {
     RTC_DEVICE_PROPERTY_VERSION = 0,  // e.g. 40400 for 4.4.0
@@ -179,6 +179,7 @@ static_assert(offsetof(RTCPointQueryFunctionArguments, primID) == 16 &&
        size_t itemCount),                                                                                \
       (g, type, slot, format, byteStride, itemCount))                                                    \
     X(void, rtcCommitGeometry, (RTCGeometry g), (g))                                                     \
+    X(void, rtcSetGeometryInstancedScene, (RTCGeometry g, RTCScene scene), (g, scene))                   \
     X(unsigned int, rtcAttachGeometry, (RTCScene scene, RTCGeometry g), (scene, g))                      \
     X(void, rtcReleaseGeometry, (RTCGeometry g), (g))                                                    \
     X(void, rtcIntersect1, (RTCScene scene, RTCRayHit* rayhit, RTCIntersectArguments* args),             \
@@ -223,12 +224,17 @@ RTCDevice new_embree_device();
 void check_embree(const char* what);
 
 // A committed scene of triangle meshes, geometry ids 0, 1, ... in order; robust traversal
-// (no misses through shared edges) over a high-quality BVH. Throws EmbreeError.
+// (no misses through shared edges) over a high-quality BVH. Throws EmbreeError. A mesh with
+// instances is built once as a scene of its own (the bottom level) and placed by an instance
+// array (its geometry id in the top level): a hit on copy k of it has instID[0] = that id,
+// instPrimID[0] = k, and geomID 0, primID and Ng in the mesh's own frame.
 struct TriangleMeshView {
     const float* vertices;      // xyz
     size_t nv;
     const uint32_t* triangles;  // ijk
     size_t nt;
+    const float* instances = nullptr;  // ninst transforms, 3 x 4 row-major [R | t]; none: not instanced
+    size_t ninst = 0;
 };
 RTCScene new_triangle_scene(RTCDevice device, const std::vector<TriangleMeshView>& meshes);
 

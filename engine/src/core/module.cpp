@@ -183,6 +183,19 @@ PYBIND11_MODULE(_core, m) {
                 throw std::invalid_argument("uv must be (triangles, 3, 2) float32");
             m.corner_uv.assign(uv.data(), uv.data() + uv.size());
         }, py::arg("mesh"), py::arg("uv"), "Texture coordinates at each triangle's corners.")
+        .def("set_mesh_instances", [](Scene& s, int mesh, FArray x) {
+            MeshRecord& m = s.meshes.at(mesh);
+            if (m.kind != SurfaceKind::kOpaque) throw std::invalid_argument("only opaque meshes can be instanced");
+            if (x.ndim() != 3 || x.shape(0) < 1 || x.shape(1) != 3 || x.shape(2) != 4)
+                throw std::invalid_argument("instances must be (N >= 1, 3, 4) float32: rows [R | t]");
+            if (size_t(x.shape(0)) >= size_t(RTC_INVALID_GEOMETRY_ID))
+                throw std::invalid_argument("too many instances for Embree's 32-bit ids");
+            for (size_t i = 0; i < size_t(x.size()); ++i)
+                if (!std::isfinite(x.data()[i])) throw std::invalid_argument("instances must be finite");
+            m.instances.assign(x.data(), x.data() + x.size());
+        }, py::arg("mesh"), py::arg("instances"),
+           "Copies of an opaque mesh: (N, 3, 4) affine transforms [R | t] of its vertices, traced as "
+           "an Embree instance array over the mesh's own BVH (the mesh is stored once).")
         .def("add_phase", [](Scene& s, const PhaseFunction& p) {
             s.phases.push_back(p);
             return int(s.phases.size()) - 1;

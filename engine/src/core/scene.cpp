@@ -11,7 +11,8 @@ namespace {
 RTCScene build_embree_scene(RTCDevice device, const std::vector<const MeshRecord*>& meshes) {
     std::vector<TriangleMeshView> views;
     for (const MeshRecord* m : meshes)
-        views.push_back({m->vertices.data(), m->vertices.size() / 3, m->triangles.data(), m->triangles.size() / 3});
+        views.push_back({m->vertices.data(), m->vertices.size() / 3, m->triangles.data(), m->triangles.size() / 3,
+                         m->instances.empty() ? nullptr : m->instances.data(), m->instances.size() / 12});
     return new_triangle_scene(device, views);
 }
 
@@ -33,6 +34,48 @@ RTCRayHit make_rayhit(const Vec3& o, const Vec3& d, double tmin, double tmax) {
 }
 
 }  // namespace
+
+Vec3 MeshRecord::to_world(size_t copy, const Vec3& p) const {
+    const float* x = &instances[12 * copy];
+    return Vec3(x[0] * p.x + x[1] * p.y + x[2] * p.z + x[3], x[4] * p.x + x[5] * p.y + x[6] * p.z + x[7],
+                x[8] * p.x + x[9] * p.y + x[10] * p.z + x[11]);
+}
+
+std::pair<Vec3, Vec3> MeshRecord::world_bounds() const {
+    Vec3 lo(kInf, kInf, kInf), hi(-kInf, -kInf, -kInf);
+    for (size_t i = 0; i + 2 < vertices.size(); i += 3)
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::min(lo[a], double(vertices[i + a]));
+            hi[a] = std::max(hi[a], double(vertices[i + a]));
+        }
+    if (instances.empty() || !(lo.x <= hi.x)) return {lo, hi};
+    // Each copy's box: the mesh's box transformed (exact for its corners: R's entries' signs
+    // pick the extreme corner per axis).
+    Vec3 wlo(kInf, kInf, kInf), whi(-kInf, -kInf, -kInf);
+    for (size_t k = 0; k < copies(); ++k) {
+        const float* x = &instances[12 * k];
+        for (int a = 0; a < 3; ++a) {
+            double l = x[4 * a + 3], h = l;
+            for (int j = 0; j < 3; ++j) {
+                const double r = x[4 * a + j];
+                l += r * (r >= 0.0 ? lo[j] : hi[j]);
+                h += r * (r >= 0.0 ? hi[j] : lo[j]);
+            }
+            wlo[a] = std::min(wlo[a], l);
+            whi[a] = std::max(whi[a], h);
+        }
+    }
+    return {wlo, whi};
+}
+
+Vec3 MeshRecord::normal_to_world(size_t copy, const Vec3& n) const {
+    const float* x = &instances[12 * copy];
+    const Vec3 r0(x[0], x[1], x[2]), r1(x[4], x[5], x[6]), r2(x[8], x[9], x[10]);
+    // The cofactor matrix's rows are the cross products of R's rows: C = det(R) R^-T.
+    const Vec3 c0 = cross(r1, r2), c1 = cross(r2, r0), c2 = cross(r0, r1);
+    const double sign = dot(r0, c0) < 0.0 ? -1.0 : 1.0;
+    return Vec3(dot(c0, n), dot(c1, n), dot(c2, n)) * sign;
+}
 
 Scene::Scene() {
     device_ = new_embree_device();
@@ -77,7 +120,11 @@ void Scene::commit() {
         if (m.kind == SurfaceKind::kWaterBoundary && m.corner_normals.size() != 3 * m.triangles.size())
             smooth_corner_normals(&m);
         ptrs.push_back(&m);
-        for (size_t i = 0; i + 2 < m.vertices.size(); i += 3) grow(m.vertices[i], m.vertices[i + 1], m.vertices[i + 2]);
+        const auto b = m.world_bounds();
+        if (b.first.x <= b.second.x) {
+            grow(b.first.x, b.first.y, b.first.z);
+            grow(b.second.x, b.second.y, b.second.z);
+        }
     }
     meshes_lo_ = lo;
     meshes_hi_ = hi;
@@ -251,12 +298,17 @@ Hit Scene::intersect(const Vec3& o, const Vec3& d, double tmax, Side side) const
     RTCRayHit rh = make_rayhit(o, d, 0.0, tmax);
     rtcIntersect1(scene_, &rh);
     if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
-        const MeshRecord& m = meshes[rh.hit.geomID];
+        // A copy of an instanced mesh: the instance array's id is the mesh's, and Embree's
+        // normal is in the mesh's own frame.
+        const bool copy = rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID;
+        const unsigned int id = copy ? rh.hit.instID[0] : rh.hit.geomID;
+        const MeshRecord& m = meshes[id];
         hit.valid = true;
-        hit.id = int(rh.hit.geomID);
+        hit.id = int(id);
         hit.t = rh.ray.tfar;
         // Embree's geometric normal is (v1 - v0) x (v2 - v0), the same winding convention.
-        hit.n = normalize(Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z));
+        const Vec3 ng(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
+        hit.n = normalize(copy ? m.normal_to_world(rh.hit.instPrimID[0], ng) : ng);
         hit.ns = hit.n;
         hit.kind = m.kind;
         hit.index = m.index;

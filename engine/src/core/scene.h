@@ -71,6 +71,18 @@ struct MeshRecord {  // one Embree geometry of the main scene
     std::vector<float> corner_normals;
     // An opaque mesh's texture coordinates at each triangle's corners (6 per triangle), or none.
     std::vector<float> corner_uv;
+    // An opaque mesh's copies (12 per copy: 3 x 4 row-major [R | t], world = R v + t), or none:
+    // the vertices above are then in the mesh's own frame, stored and traced once (an Embree
+    // instance array over the mesh's own BVH).
+    std::vector<float> instances;
+    size_t copies() const { return instances.empty() ? 1 : instances.size() / 12; }
+    Vec3 to_world(size_t copy, const Vec3& p) const;
+    // Bounds of every copy in the world (of the vertices when not instanced); empty: lo > hi.
+    std::pair<Vec3, Vec3> world_bounds() const;
+    // The outward normal in the world of copy `copy` for the mesh's own normal n (not unit):
+    // |det R| R^-T n, i.e. the cofactor matrix of R times sign(det R) (a mirrored copy keeps
+    // its faces outward, as a flattened copy with its winding reversed does).
+    Vec3 normal_to_world(size_t copy, const Vec3& n) const;
 };
 void smooth_corner_normals(MeshRecord* m);
 

@@ -122,7 +122,7 @@ def embree_triangles(scene: Scene) -> np.ndarray:
     """float32 (M, 3, 3): every surface the engine's rays can meet, as triangles: opaque
     meshes, closed water meshes and, for an ocean, its surface and bottom as two large quads
     (the engine intersects those analytically). Raw rays are cast against exactly this."""
-    tris = [m.mesh.vertices[m.mesh.triangles] for m in scene.meshes]
+    tris = [f.mesh.vertices[f.mesh.triangles] for f in (m.flattened() for m in scene.meshes)]
     tris += [w.mesh.vertices[w.mesh.triangles] for w in scene.water if w.type == "mesh"]
     for w in scene.water:
         if w.type != "ocean":

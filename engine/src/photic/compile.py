@@ -151,6 +151,8 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
                            0, mat_index[m.material])
         if m.uv is not None and scene.materials[m.material].texture is not None:
             core.set_mesh_uv(gi, np.ascontiguousarray(m.uv, np.float32))
+        if m.instances is not None:
+            core.set_mesh_instances(gi, np.ascontiguousarray(m.instances, np.float32))
 
     for w in scene.water:
         wi = water_index[w.name]

@@ -270,12 +270,20 @@ class TriangleMesh(_ArrayEq):
 @dataclass(eq=False)
 class MeshObject(_ArrayEq):
     """An opaque object: a mesh and the name of its material; ``uv``: texture coordinates
-    (triangles, 3, 2) at each triangle's corners, for a textured material (None: none)."""
+    (triangles, 3, 2) at each triangle's corners, for a textured material (None: none).
+
+    ``instances``: None (the mesh stands where its vertices are), or the copies of it that
+    stand in the scene, as affine transforms (N, 3, 4) float64, rows [R | t]: a copy's vertex
+    is R v + t (m). The mesh is stored once and traced as one Embree instance array (a
+    two-level BVH), so N copies cost one mesh and N transforms, not N meshes. A transform with
+    a negative determinant mirrors its copy, whose faces keep facing outwards (as ``transform``
+    in a scene file does). A (N, 4, 4) array with last rows [0, 0, 0, 1] is taken too."""
 
     name: str
     mesh: TriangleMesh
     material: str
     uv: np.ndarray | None = None
+    instances: np.ndarray | None = None
 
     def __post_init__(self):
         if self.uv is not None and not (isinstance(self.uv, np.ndarray) and self.uv.dtype == np.float32):
@@ -283,6 +291,37 @@ class MeshObject(_ArrayEq):
                 self.uv = np.asarray(self.uv, dtype=np.float32)
             except (TypeError, ValueError):
                 pass
+        if self.instances is not None:
+            try:
+                m = np.asarray(self.instances, dtype=np.float64)
+            except (TypeError, ValueError):
+                return  # (validation names the field)
+            if m.ndim == 3 and m.shape[1:] == (4, 4) and np.array_equal(
+                    m[:, 3], np.broadcast_to([0.0, 0.0, 0.0, 1.0], (len(m), 4))):
+                m = m[:, :3]
+            self.instances = np.ascontiguousarray(m)
+
+    @property
+    def copies(self) -> int:
+        """How many times the mesh stands in the scene (1 without instances)."""
+        return 1 if self.instances is None else len(self.instances)
+
+    def flattened(self) -> MeshObject:
+        """The same object with every instance's triangles in the world, as one mesh (what
+        instancing saves; the reference the instanced renders are tested against)."""
+        if self.instances is None:
+            return self
+        v = np.asarray(self.mesh.vertices, np.float64)
+        t = np.asarray(self.mesh.triangles, np.int64)
+        vs, ts, uvs = [], [], []
+        for k, m in enumerate(self.instances):
+            vs.append(v @ m[:, :3].T + m[:, 3])
+            mirrored = np.linalg.det(m[:, :3]) < 0  # keep the faces outward, as transform does
+            ts.append((t[:, ::-1] if mirrored else t) + k * len(v))
+            if self.uv is not None:
+                uvs.append(self.uv[:, ::-1] if mirrored else self.uv)
+        uv = np.concatenate(uvs) if self.uv is not None else None
+        return MeshObject(self.name, TriangleMesh(np.concatenate(vs), np.concatenate(ts)), self.material, uv)
 
 
 @dataclass(eq=False)

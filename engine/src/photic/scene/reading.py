@@ -354,6 +354,21 @@ def _array(label: str, fld: str, value: Any, dtype) -> np.ndarray:
         raise SceneError(label, fld, f"must be a nested list of numbers ({exc})") from None
 
 
+def _read_instances(label: str, value: Any, base_dir: Path) -> np.ndarray:
+    """A mesh's instances: inline transforms (N x 3 x 4 or N x 4 x 4) or the path of a .npy
+    file holding such an array (compact for 10^5 copies and more)."""
+    if not isinstance(value, str):
+        return _array(label, "instances", value, np.float64)
+    path = base_dir / value
+    if not path.is_file():
+        raise SceneError(label, "instances", f"instance file not found (or not a file): {path}")
+    try:
+        return np.load(path, allow_pickle=False)
+    except (OSError, ValueError) as exc:
+        raise SceneError(label, "instances", f"cannot read {path} as a .npy array of transforms "
+                                             f"(N, 3, 4): {exc}") from None
+
+
 def _read_material(name: str, m: dict, nbands: int) -> Material:
     label = f"material '{name}'"
     emission = _per_band(label, "emission", m["emission"], nbands) if "emission" in m else None
@@ -454,7 +469,8 @@ def _build_scene(d: dict, base_dir: Path) -> Scene:
     for i, m in enumerate(d.get("meshes", [])):
         label = _label("mesh", m["name"], i)
         uv = _array(label, "uv", m["uv"], np.float32) if "uv" in m else None
-        meshes.append(MeshObject(m["name"], _read_mesh(label, m, base_dir), m["material"], uv))
+        instances = _read_instances(label, m["instances"], base_dir) if "instances" in m else None
+        meshes.append(MeshObject(m["name"], _read_mesh(label, m, base_dir), m["material"], uv, instances))
     water = [_read_water(_label("water", w["name"], i), w, bands, base_dir)
              for i, w in enumerate(d.get("water", []))]
     sun = None

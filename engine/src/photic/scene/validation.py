@@ -48,6 +48,8 @@ def _validate_scene(s: Scene) -> None:
         _check_material_ref(label, "material", obj.material, s.materials)
         if obj.uv is not None:
             _check_uv(label, obj)
+        if obj.instances is not None:
+            _check_instances(label, obj)
 
     seen = {}
     ocean = None
@@ -195,6 +197,43 @@ def _check_uv(label: str, obj: MeshObject) -> None:
                                       f"coordinates, got {getattr(uv, 'shape', _show(uv))}")
     if not np.all(np.isfinite(uv)):
         raise SceneError(label, "uv", "texture coordinates must be finite")
+
+
+MAX_INSTANCES = 1 << 26  # copies of one mesh (Embree's instance ids are 32-bit; 64 M x 48 B)
+
+
+def _check_instances(label: str, obj: MeshObject) -> None:
+    """An instanced mesh's transforms: (N, 3, 4) finite affine rows [R | t], 1 <= N <=
+    MAX_INSTANCES, none singular or so thin that its copy is degenerate, every copy within
+    the coordinate limit."""
+    m = obj.instances
+    if not isinstance(m, np.ndarray) or m.ndim != 3 or m.shape[1:] != (3, 4) or m.dtype.kind != "f":
+        raise SceneError(label, "instances", f"must be an array (N, 3, 4) (or (N, 4, 4) with last "
+                                             f"rows [0, 0, 0, 1]) of affine transforms [R | t], "
+                                             f"got {getattr(m, 'shape', _show(m))}")
+    if not 1 <= len(m) <= MAX_INSTANCES:
+        raise SceneError(label, "instances", f"must hold 1 to {MAX_INSTANCES} transforms, got {len(m)}")
+    finite = np.all(np.isfinite(m), axis=(1, 2))
+    if not finite.all():
+        k = int(np.flatnonzero(~finite)[0])
+        raise SceneError(label, f"instances[{k}]", f"must contain only finite numbers, got {m[k].tolist()}")
+    r = m[:, :, :3]
+    det = np.linalg.det(r)
+    scale = np.max(np.linalg.norm(r, axis=1), axis=1)  # the largest row: the copy's stretch
+    thin = ~(np.abs(det) > 1e-9 * scale ** 3)
+    if thin.any():
+        k = int(np.flatnonzero(thin)[0])
+        raise SceneError(label, f"instances[{k}]", f"is singular or degenerate (determinant "
+                                                   f"{det[k]:.3g}): a copy would be flat, got {m[k].tolist()}")
+    v = np.asarray(obj.mesh.vertices, np.float64)
+    lo, hi = v.min(0), v.max(0)
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    reach = np.max(np.abs(np.einsum("nij,cj->nci", r, corners) + m[:, None, :, 3]), axis=(1, 2))
+    far = reach > MAX_COORDINATE_M
+    if far.any():
+        k = int(np.flatnonzero(far)[0])
+        raise SceneError(label, f"instances[{k}]", f"places the mesh beyond the coordinate limit: "
+                                                   f"its copy must be {_COORD_TEXT}")
 
 
 def _check_material_ref(label: str, fld: str, name: Any, materials: dict) -> None:

@@ -122,7 +122,8 @@ def _scene_to_dict(s: Scene) -> dict:
                   for b in s.bands],
         "materials": {k: _material_to_dict(m) for k, m in s.materials.items()},
         "meshes": [{"name": m.name, "material": m.material, **_mesh_to_dict(m.mesh),
-                    **({} if m.uv is None else {"uv": _list(m.uv)})}
+                    **({} if m.uv is None else {"uv": _list(m.uv)}),
+                    **({} if m.instances is None else {"instances": _list(m.instances)})}
                    for m in s.meshes],
         "water": [_water_to_dict(w) for w in s.water],
         "sun": None if s.sun is None else {
