@@ -152,6 +152,75 @@ def seabed_geometry(n_triangles: int) -> list[tuple[str, str, np.ndarray, np.nda
     return parts
 
 
+INSTANCED_SIZES = (10_000, 1_000_000, 10_000_000, 100_000_000)
+DEFAULT_INSTANCED_PLOT = Path("docs") / "images" / "large_instanced.png"
+BLADE_TRIANGLES = 1000  # a seagrass blade: a curved ribbon of 500 quads
+ROCK_COPIES = 100
+MEADOW_SEABED_CELLS = 50  # the seabed itself: 2 x 50^2 = 5,000 triangles, not instanced
+
+
+def blade_mesh(n_triangles: int = BLADE_TRIANGLES) -> tuple[np.ndarray, np.ndarray]:
+    """A seagrass blade in its own frame: a ribbon 1 m long and 8 mm wide rising from the
+    origin along z and bending over along x, twisted a quarter turn; n_triangles (even)."""
+    n = max(1, n_triangles // 2)
+    s = np.linspace(0.0, 1.0, n + 1)
+    twist = 0.5 * np.pi * s
+    spine = np.stack([0.35 * s ** 2, np.zeros_like(s), 0.9 * s], axis=1)
+    side = np.stack([-np.sin(twist) * 0.0, np.cos(twist), np.sin(twist) * 0.2], axis=1) * 0.004
+    v = np.concatenate([spine - side, spine + side])  # left edge 0..n, right edge n+1..2n+1
+    i = np.arange(n, dtype=np.int64)
+    t = np.empty((2 * n, 3), np.int64)
+    t[0::2] = np.stack([i, i + 1, n + 1 + i], axis=1)
+    t[1::2] = np.stack([i + 1, n + 2 + i, n + 1 + i], axis=1)
+    return v, t
+
+
+def meadow_layout(n_blades: int, seed: int = 5) -> tuple[np.ndarray, np.ndarray]:
+    """Transforms (N, 3, 4) of the blades and of the ROCK_COPIES rocks over the seabed: blades
+    in patches around 40 centres (a meadow's clumps), turned about z, leaning, 0.4-1.2 m tall;
+    the rocks of :func:`rock_layout`'s kind, rotated and scaled 0.5-1.6 m."""
+    rng = np.random.default_rng(seed)
+    centres = rng.uniform(-17.0, 17.0, (40, 2))
+    xy = centres[rng.integers(0, 40, n_blades)] + rng.normal(0.0, 1.8, (n_blades, 2))
+    xy = np.clip(xy, -SEABED_HALF + 0.5, SEABED_HALF - 0.5)
+    turn = rng.uniform(0.0, 2.0 * np.pi, n_blades)
+    lean = rng.normal(0.0, 0.15, n_blades)
+    size = rng.uniform(0.4, 1.2, n_blades)
+    c, s_, cl, sl = np.cos(turn), np.sin(turn), np.cos(lean), np.sin(lean)
+    blades = np.zeros((n_blades, 3, 4))
+    # R = Rz(turn) Ry(lean) * size
+    blades[:, 0, 0], blades[:, 0, 1], blades[:, 0, 2] = c * cl, -s_, c * sl
+    blades[:, 1, 0], blades[:, 1, 1], blades[:, 1, 2] = s_ * cl, c, s_ * sl
+    blades[:, 2, 0], blades[:, 2, 1], blades[:, 2, 2] = -sl, 0.0, cl
+    blades[:, :, :3] *= size[:, None, None]
+    blades[:, :, 3] = np.stack([xy[:, 0], xy[:, 1], seabed_height(xy[:, 0], xy[:, 1]) - 0.02], axis=1)
+    rocks = np.zeros((ROCK_COPIES, 3, 4))
+    for k in range(ROCK_COPIES):
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        r = rng.uniform(0.5, 1.6)
+        x, y = rng.uniform(-16.0, 16.0, 2)
+        rocks[k, :, :3] = q * np.array([r, r, 0.7 * r])
+        rocks[k, :, 3] = (x, y, float(seabed_height(x, y)) + 0.2 * r)
+    return blades, rocks
+
+
+def meadow_geometry(n_triangles: int) -> dict:
+    """The instanced meadow of about n_triangles rendered triangles: the seabed (5,000
+    triangles, flattened), half of the rest in copies of a 1,000-triangle blade and half in
+    ROCK_COPIES copies of one rock mesh. Returns the parts and their counts."""
+    rest = max(0, n_triangles - 2 * MEADOW_SEABED_CELLS ** 2)
+    n_blades = max(1, int(round(rest / 2 / BLADE_TRIANGLES)))
+    per_rock = max(24.0, rest / 2 / ROCK_COPIES)
+    n_lat = max(3, int(round(0.5 * (1.0 + math.sqrt(1.0 + per_rock)))))
+    d, rock_t = _uv_sphere(n_lat)
+    k = np.array([3.0, 7.0, 13.0])
+    rock_v = d * (1.0 + np.sin(d * k + np.array([0.3, 1.1, 2.0])) @ np.array([0.18, 0.08, 0.04]))[:, None]
+    blade_v, blade_t = blade_mesh()
+    blades, rocks = meadow_layout(n_blades)
+    sv, st = seabed_mesh(MEADOW_SEABED_CELLS)
+    return {"seabed": (sv, st), "blade": (blade_v, blade_t, blades), "rock": (rock_v, rock_t, rocks)}
+
+
 # ----------------------------------------------------------------------------------------
 # Scenes
 # ----------------------------------------------------------------------------------------
@@ -199,6 +268,24 @@ def seabed_scene(n_triangles: int, parts=None):
     scene = Scene.from_dict(seabed_scene_dict())
     for name, mat, v, t in parts if parts is not None else seabed_geometry(n_triangles):
         scene.meshes.append(MeshObject(name, TriangleMesh(v, t), mat))
+    scene.validate()
+    return scene
+
+
+def meadow_scene(parts: dict):
+    """The seabed scene's sea, sun, sky, camera and radiometers over the instanced meadow."""
+    from .scene import MeshObject, Scene, TriangleMesh
+
+    d = seabed_scene_dict()
+    d["name"] = "large_meadow"
+    d["materials"]["blade"] = {"type": "lambertian", "reflectance": [0.05, 0.15, 0.04]}
+    scene = Scene.from_dict(d)
+    sv, st = parts["seabed"]
+    bv, bt, bx = parts["blade"]
+    rv, rt, rx = parts["rock"]
+    scene.meshes += [MeshObject("seabed", TriangleMesh(sv, st), "sand"),
+                     MeshObject("blades", TriangleMesh(bv, bt), "blade", instances=bx),
+                     MeshObject("rocks", TriangleMesh(rv, rt), "rock", instances=rx)]
     scene.validate()
     return scene
 
@@ -369,7 +456,17 @@ def measure_case(case: dict) -> dict:
         rec["phase_peak_mb"][name] = phases.peak()
         return out
 
-    if case["kind"] == "seabed":
+    if case["kind"] == "instanced":
+        parts = phase("generate", lambda: meadow_geometry(int(case["triangles"])))
+        scene = phase("scene", lambda: meadow_scene(parts))
+        del parts
+        rec["triangles"] = int(sum(len(m.mesh.triangles) * m.copies for m in scene.meshes))
+        rec["stored_triangles"] = int(sum(len(m.mesh.triangles) for m in scene.meshes))
+        rec["instances"] = int(sum(m.copies for m in scene.meshes if m.instances is not None))
+        rec["vertices"] = int(sum(len(m.mesh.vertices) for m in scene.meshes))
+        rec["objects"] = len(scene.meshes)
+        rays = int(case.get("rays", RAYS))
+    elif case["kind"] == "seabed":
         parts = phase("generate", lambda: seabed_geometry(int(case["triangles"])))
         scene = phase("scene", lambda: seabed_scene(0, parts))
         del parts  # the scene holds its own copies now
@@ -494,6 +591,70 @@ def run_large_bench(sizes=DEFAULT_SIZES, samples: int = 4, radiometer_samples: i
     return records
 
 
+def run_instanced_bench(sizes=INSTANCED_SIZES, samples: int = 4, radiometer_samples: int = 65536,
+                        threads: int = 2, repeats: int = 3, builds: int = 1, progress=None) -> list[dict]:
+    """One record per size of the instanced meadow (the median of ``builds`` child processes),
+    and the flattened seabed of 10^4 triangles (same sea, camera and radiometers): the view
+    the camera's cost per sample is compared with."""
+    say = progress or (lambda msg: None)
+    common = {"samples": samples, "radiometer_samples": radiometer_samples, "threads": threads,
+              "repeats": repeats}
+    records = [_median_record([run_case_in_child(dict(common, kind="seabed", triangles=10_000))
+                               for _ in range(builds)])]
+    say(f"flattened seabed, {records[0]['triangles']:,} triangles: camera "
+        f"{records[0]['camera']['cpu_s_per_sample'] * 1e6:.2f} CPU us/sample")
+    for n in sizes:
+        runs = [run_case_in_child(dict(common, kind="instanced", triangles=int(n))) for _ in range(builds)]
+        say(f"instanced, {runs[-1]['triangles']:,} triangles ({runs[-1]['instances']:,} copies): peak "
+            f"{runs[-1]['peak_rss_mb']:.0f} MB, camera {runs[-1]['camera']['cpu_s_per_sample'] * 1e6:.2f} "
+            f"CPU us/sample")
+        records.append(_median_record(runs))
+    return records
+
+
+def format_instanced_table(records: list[dict]) -> str:
+    """The instanced sizes against the flattened 10^4-triangle seabed (the first record)."""
+    base = next(r for r in records if r["kind"] == "seabed")
+    ref = base["camera"]["cpu_s_per_sample"]
+    lines = [f"{'rendered':>12} {'stored':>9} {'copies':>7} {'peak RSS':>9} {'build':>8} "
+             f"{'scene+check':>11} {'compile':>8} {'camera CPU':>11} {'camera cost':>12} {'ray CPU':>8}",
+             f"{'triangles':>12} {'triangles':>9} {'':>7} {'(MB)':>9} {'(MB)':>8} {'(s)':>11} "
+             f"{'(s)':>8} {'(us/spp)':>11} {'vs 10^4 flat':>12} {'(ns)':>8}"]
+    for r in records:
+        what = "flat" if r["kind"] == "seabed" else ""
+        lines.append(
+            f"{r['triangles']:>12,} {r.get('stored_triangles', r['triangles']):>9,} "
+            f"{r.get('instances', 0):>7,} {r['peak_rss_mb']:>9.0f} {r['build_growth_mb']:>8.0f} "
+            f"{r['phase_s']['scene']:>11.2f} {r['phase_s']['compile']:>8.2f} "
+            f"{r['camera']['cpu_s_per_sample'] * 1e6:>11.2f} "
+            f"{r['camera']['cpu_s_per_sample'] / ref:>11.2f}x {r['rays']['cpu_s_per_ray'] * 1e9:>8.0f} {what}")
+    lines.append(f"flat: the seabed scene of 10^4 flattened triangles (seabed and 64 rocks) with the same "
+                 f"sea, camera ({RESOLUTION[0]} x {RESOLUTION[1]}) and radiometers; the others: a "
+                 f"5,000-triangle seabed, copies of a {BLADE_TRIANGLES}-triangle blade and "
+                 f"{ROCK_COPIES} copies of one rock; build: peak above the baseline while the scene "
+                 f"is built, checked and compiled; {base['threads']} threads; CPU: process CPU time")
+    return "\n".join(lines)
+
+
+def plot_instanced(records: list[dict], path: str | Path) -> Path:
+    """Log-log: the camera's CPU time per sample and the peak memory against rendered
+    triangles, instanced, with the flattened 10^4-triangle view as a horizontal line."""
+    from .plots import loglog_panels, save_figure
+
+    inst = [r for r in records if r["kind"] == "instanced"]
+    base = next(r for r in records if r["kind"] == "seabed")
+    n = [r["triangles"] for r in inst]
+    time_panel = {"title": "Camera CPU time per sample", "xlabel": "rendered triangles",
+                  "ylabel": "microseconds", "legend": True, "series": [
+                      ("instanced meadow", n, [r["camera"]["cpu_s_per_sample"] * 1e6 for r in inst], (200, 40, 40)),
+                      ("1.5 x the flattened 10^4-triangle view", [min(n), max(n)],
+                       [1.5 * base["camera"]["cpu_s_per_sample"] * 1e6] * 2, (170, 170, 170))]}
+    mem_panel = {"title": "Peak memory", "xlabel": "rendered triangles", "ylabel": "GB", "legend": True,
+                 "series": [("peak RSS of the process", n, [r["peak_rss_mb"] / 1024 for r in inst], (200, 40, 40)),
+                            ("4 GB", [min(n), max(n)], [4.0, 4.0], (170, 170, 170))]}
+    return save_figure(loglog_panels([time_panel, mem_panel]), path)
+
+
 def format_table(records: list[dict]) -> str:
     """The records as text tables: seabed sizes, closed-mesh checks, tiled ocean."""
     lines = []
@@ -598,6 +759,8 @@ def machine_info() -> dict:
 def run_large_cli(args) -> int:
     """``photic bench --large``: the table (or JSON with ``--json``), the JSON file and plot."""
     say = None if args.json else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    if getattr(args, "instanced", False):
+        return _run_instanced_cli(args, say)
     if args.quick:  # a smoke run: two small sizes, one build, few samples, small ocean patch
         sizes = [int(float(n)) for n in (args.sizes or (10_000, 100_000))]
         kw = dict(samples=1, radiometer_samples=4096, repeats=1, builds=1,
@@ -620,6 +783,27 @@ def run_large_cli(args) -> int:
     plot = args.plot if args.plot is not None else ("" if args.quick else str(DEFAULT_PLOT))
     if plot and any(r["kind"] == "seabed" for r in records):
         plot_records(records, plot)
+        if say:
+            print(f"plot: {plot}")
+    return 0
+
+
+def _run_instanced_cli(args, say) -> int:
+    sizes = [int(float(n)) for n in (args.sizes or INSTANCED_SIZES)]
+    if args.quick:
+        records = run_instanced_bench(sizes, samples=1, radiometer_samples=4096, repeats=1,
+                                      threads=max(args.threads), progress=say)
+    else:
+        records = run_instanced_bench(sizes, repeats=args.repeats, threads=max(args.threads), progress=say)
+    print(json.dumps(records, indent=1) if args.json else format_instanced_table(records))
+    out_json = args.out_json if args.out_json is not None else (
+        "" if args.quick else str(DEFAULT_INSTANCED_PLOT.with_suffix(".json")))
+    if out_json:
+        Path(out_json).parent.mkdir(parents=True, exist_ok=True)
+        Path(out_json).write_text(json.dumps({"machine": machine_info(), "records": records}, indent=1))
+    plot = args.plot if args.plot is not None else ("" if args.quick else str(DEFAULT_INSTANCED_PLOT))
+    if plot:
+        plot_instanced(records, plot)
         if say:
             print(f"plot: {plot}")
     return 0

@@ -529,6 +529,11 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--repeats", type=int, default=3,
                    help="with --large: processes per size and renders per process (medians; default 3)")
     b.add_argument("--no-ocean", action="store_true", help="with --large: no tiled-ocean cases")
+    b.add_argument("--instanced", action="store_true",
+                   help="with --large: an instanced seagrass meadow (copies of a 1,000-triangle blade and "
+                        "100 copies of one rock) of 1e4 to 1e8 rendered triangles (--sizes), each in a fresh "
+                        "process: peak memory and the camera's cost per sample against the flattened "
+                        "10^4-triangle seabed (plot default: docs/images/large_instanced.png)")
     b.add_argument("--out-json", default=None, metavar="PATH",
                    help="with --large: JSON file of the records (default: docs/images/large_scenes.json; "
                         "'' for none)")
