@@ -8,8 +8,9 @@ type and Photic role, to the module of its concept; they collect into one shared
 ``export_state``            the shared state (depsgraph, bands, lists being filled), ``ExportInfo``
 ``export_materials``        Blender materials -> reflectance per band
 ``export_geometry``         opaque meshes: each distinct mesh evaluated once (modifiers
-                            applied) and read in bulk, its instances only add a matrix, all
-                            instances of a mesh that share a material become one engine mesh
+                            applied) and read in bulk, its instances only add a matrix; a
+                            mesh met once is flattened into the world, a mesh met more often
+                            is one engine mesh per material with a transform per copy
 ``export_water``            water bodies and water surfaces (flat, waves, mesh patch, bottom)
 ``export_iops``             homogeneous IOPs and phase functions (profiles and grids:
                             ``natural_waters``)
@@ -32,7 +33,7 @@ import time
 import numpy as np
 
 from .export_camera import ViewCamera, camera
-from .export_geometry import GEOMETRY_TYPES, add_opaque, build_meshes, mesh_key
+from .export_geometry import GEOMETRY_TYPES, add_opaque, build_meshes, check_opaque, mesh_key
 from .export_light import add_light, sun
 from .export_world import sky
 from .export_radiometers import add_radiometer, add_radiometer_array
@@ -51,25 +52,35 @@ def walk(ex: ExportState) -> None:
     """Every instance of the depsgraph to the module of its concept."""
     water_index: dict = {}
     estimate = max(1, len(ex.dg.objects))
+    # What an instance is (its role, type and mesh key) is read once per evaluated object and
+    # geometry: a Geometry Nodes or particle system's thousands of instances share a few.
+    kinds: dict = {}
     for i, inst in enumerate(ex.dg.object_instances):
         if i % CHECK_EVERY == CHECK_EVERY - 1:
             if ex.test_break():
                 raise ExportCancelled()
             ex.progress(min(0.99, i / max(estimate, i + 1)), f"exporting: {i + 1} instances")
         obj = inst.object
-        matrix = np.array(inst.matrix_world, dtype=np.float64)
+        is_instance = inst.is_instance
         original = obj.original
-        role = original.photic.role if hasattr(original, "photic") else "NONE"
-        if not np.isfinite(matrix).all() and (obj.type == "LIGHT" or role != "NONE"
-                                               or obj.type in GEOMETRY_TYPES):
-            raise non_finite_transform(obj)  # (it was dropped as 'zero-area triangles')
+        data = obj.data
+        which = (original.as_pointer(), 0 if data is None else data.as_pointer(), is_instance)
+        kind = kinds.get(which)
+        if kind is None:
+            kind = kinds[which] = _kind(obj, original, is_instance)
+        role, otype, key = kind
+        matrix = np.array(inst.matrix_world, dtype=np.float64)
         ex.info.instances += 1
-        if obj.type == "LIGHT":
+        if role == "NONE" and otype in GEOMETRY_TYPES:
+            add_opaque(ex, obj, key, matrix)  # (its matrix is checked by check_opaque)
+            continue
+        if not np.isfinite(matrix).all() and (otype == "LIGHT" or role != "NONE"):
+            raise non_finite_transform(obj)  # (it was dropped as 'zero-area triangles')
+        if otype == "LIGHT":
             add_light(ex, obj, matrix)
             continue
-        if obj.type == "CAMERA":
+        if otype == "CAMERA":
             continue
-        key = mesh_key(obj, inst.is_instance)
         if role == "RADIOMETER":
             add_radiometer(ex, original, matrix)
         elif role == "RADIOMETER_ARRAY":
@@ -84,8 +95,21 @@ def walk(ex: ExportState) -> None:
                                   "a water surface cannot be instanced")
             water_index[original.name_full] = 1
             add_water_surface(ex, obj, key, matrix)
-        elif obj.type in GEOMETRY_TYPES:
-            add_opaque(ex, obj, key, matrix)
+
+    def is_opaque(inst) -> bool:
+        obj = inst.object
+        role, otype, _ = _kind(obj, obj.original, inst.is_instance)
+        return role == "NONE" and otype in GEOMETRY_TYPES
+
+    check_opaque(ex, is_opaque)
+
+
+def _kind(obj, original, is_instance: bool) -> tuple:
+    """(Photic role, object type, mesh key or None) of an evaluated object."""
+    role = original.photic.role if hasattr(original, "photic") else "NONE"
+    otype = obj.type
+    key = None if otype in ("LIGHT", "CAMERA") else mesh_key(obj, is_instance)
+    return role, otype, key
 
 
 def export_scene(depsgraph, photic, *, view_camera: ViewCamera | None = None,

@@ -18,8 +18,10 @@ from .export_values import ExportError
 class ExportInfo:
     """What the export did: counts, warnings for the user and time taken."""
 
-    triangles: int = 0
-    instances: int = 0
+    triangles: int = 0           # rendered: an instanced mesh's triangles times its copies
+    instances: int = 0           # depsgraph instances walked (objects and their instances)
+    instanced_meshes: int = 0    # meshes exported once with a transform per copy
+    instanced_copies: int = 0    # the copies of those meshes
     meshes_evaluated: int = 0
     warnings: list = field(default_factory=list)
     # What Photic does not render, or renders approximately, per data-block the panels show
@@ -27,6 +29,15 @@ class ExportInfo:
     notes: dict = field(default_factory=dict)
     time_s: float = 0.0
     radiometer_objects: dict = field(default_factory=dict)  # engine radiometer -> object
+
+    def describe(self) -> str:
+        """The exported geometry in a few words: '3,200,000 triangles (10,000 copies of 1
+        mesh)'."""
+        text = f"{self.triangles:,} triangles"
+        if self.instanced_meshes:
+            s = "" if self.instanced_meshes == 1 else "es"
+            text += f" ({self.instanced_copies:,} copies of {self.instanced_meshes} mesh{s})"
+        return text
 
 
 class ExportState:
@@ -49,8 +60,10 @@ class ExportState:
                               exc.message) from None
         # engine material name -> photic Material (export_materials)
         self.materials: dict = {}
-        # (key, material name) -> [list of world vertex arrays, list of triangle arrays]
-        # (export_geometry)
+        # mesh key -> export_geometry.Opaque: the mesh read once and each copy's matrix
+        self.opaque: dict = {}
+        # (key, material name) -> [world vertex arrays, triangle arrays, uv arrays] (a mesh
+        # met once, flattened) or export_geometry.Instanced (export_geometry.build_meshes)
         self.groups: dict = {}
         self.group_names: dict = {}  # (key, material name) -> the first object's name
         self.mesh_cache: dict = {}   # key -> evaluated mesh arrays (export_geometry.mesh_data)

@@ -530,6 +530,10 @@ class FinalRender:
             return
         self.summary["export_s"] = info.time_s
         self.summary["triangles"] = info.triangles
+        self.summary["instanced_meshes"] = info.instanced_meshes
+        self.summary["instanced_copies"] = info.instanced_copies
+        if info.instanced_meshes:  # (e.g. '3,200,000 triangles (10,000 copies of 1 mesh)')
+            engine.report({"INFO"}, f"Photic: exported {info.describe()} in {info.time_s:.2f} s")
         bands = [(b.name, b.center_nm, b.width_nm) for b in scene.bands]
         camera = scene.cameras[0] if scene.cameras else None
         width, height = camera.resolution if camera else (1, 1)

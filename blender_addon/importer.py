@@ -54,6 +54,18 @@ def _mesh_object(name, vertices, triangles, collection):
     return obj
 
 
+def _copies(obj, instances, collection) -> None:
+    """An instanced mesh's copies as linked duplicates of ``obj`` (one mesh data-block): ``obj``
+    is the first, each stands where its transform [R | t] puts it (which exports back as the
+    same instanced mesh). Blender keeps an object's transform as location, rotation and scale:
+    a sheared transform loses its shear."""
+    objects = [obj] + [obj.copy() for _ in range(len(instances) - 1)]
+    for k, (target, rt) in enumerate(zip(objects, np.asarray(instances, float))):
+        if k:
+            collection.objects.link(target)
+        target.matrix_world = Matrix([*rt.tolist(), [0.0, 0.0, 0.0, 1.0]])
+
+
 def _set_bands(props, bands) -> None:
     rgb = [(c, w) for _, c, w in bands]
     if len(bands) == 3 and rgb == [tuple(b) for b in bandmod.RGB_BANDS]:
@@ -196,7 +208,8 @@ def _water_props(obj, w, level: float, bands, collection) -> None:
 def import_scene(scene, bscene=None, collection=None) -> dict:
     """Create the objects of a ``photic.scene.Scene`` in ``bscene`` (default: the context's).
 
-    Returns the created objects by the engine object's name."""
+    Returns the created objects by the engine object's name (an instanced mesh's: the first of
+    its copies, linked duplicates sharing its mesh data-block)."""
     bscene = bscene or bpy.context.scene
     collection = collection or bscene.collection
     bands = [(b.name, b.center_nm, b.width_nm) for b in scene.bands]
@@ -224,7 +237,9 @@ def import_scene(scene, bscene=None, collection=None) -> dict:
     for m in scene.meshes:
         obj = _mesh_object(m.name, m.mesh.vertices, m.mesh.triangles, collection)
         obj.data.materials.append(materials[m.material])
-        created[m.name] = obj
+        created[m.name] = obj  # (an instanced mesh: its first copy, which shares the mesh)
+        if m.instances is not None:
+            _copies(obj, m.instances, collection)
     for w in scene.water:
         if w.type == "mesh":
             obj = _mesh_object(w.name, w.mesh.vertices, w.mesh.triangles, collection)

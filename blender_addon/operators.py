@@ -39,7 +39,7 @@ class PHOTIC_OT_export_scene(bpy.types.Operator):
             self.report({"WARNING"}, w)
         path = bpy.path.abspath(self.filepath)
         photic.scene.save_scene(scene, path)
-        self.report({"INFO"}, f"Photic scene written to {path} ({info.triangles} triangles)")
+        self.report({"INFO"}, f"Photic scene written to {path} ({info.describe()})")
         return {"FINISHED"}
 
     def invoke(self, context, event):

@@ -381,8 +381,10 @@ def test_instances_are_grouped_by_mesh_and_transformed(empty):
         bpy.context.scene.collection.objects.link(dup)
     scene, info = export_current()
     assert info.meshes_evaluated == 1
-    assert len(scene.meshes) == 1 and len(scene.meshes[0].mesh.triangles) == 6 * 12
-    v = scene.meshes[0].mesh.vertices
+    # one box and a transform per copy (tests/test_addon_instancing.py)
+    assert len(scene.meshes) == 1 and scene.meshes[0].copies == 6
+    assert len(scene.meshes[0].flattened().mesh.triangles) == 6 * 12
+    v = scene.meshes[0].flattened().mesh.vertices
     assert v[:, 0].max() == pytest.approx(8.5) and v[:, 2].min() == pytest.approx(-2.0)
 
 
@@ -431,9 +433,10 @@ def test_million_triangle_scene_with_1000_instances_exports(empty):
         t0 = time.perf_counter()
         exported, info = export_current()
         times.append(time.perf_counter() - t0)
-    tris = sum(len(m.mesh.triangles) for m in exported.meshes)
+    tris = sum(m.copies * len(m.mesh.triangles) for m in exported.meshes)
     assert tris == info.triangles >= 1_000_000
     assert info.meshes_evaluated == 2
+    assert info.instanced_meshes == 1 and info.instanced_copies == 1000  # the rocks
     print(f"export of {tris} triangles ({info.instances} instances): "
           f"{min(times):.2f} s (best of 2), {times}")
 

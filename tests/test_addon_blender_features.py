@@ -312,7 +312,9 @@ def test_geometry_nodes_instances_are_what_blender_shows(empty, keep_carrier):
     ico_tris = 20  # an icosphere of 1 subdivision
     sphere_meshes = [m for m in scene.meshes if m.material == "Red"]
     assert len(sphere_meshes) == 1, [(m.name, m.material) for m in scene.meshes]
-    spheres = sphere_meshes[0].mesh
+    # one sphere and a transform per point (tests/test_addon_instancing.py)
+    assert sphere_meshes[0].copies == 100 and len(sphere_meshes[0].mesh.triangles) == ico_tris
+    spheres = sphere_meshes[0].flattened().mesh
     assert len(spheres.triangles) == 100 * ico_tris
     # 100 spheres at the grid's points on the seabed, each of radius 0.2
     centres = spheres.vertices.reshape(100, -1, 3).mean(axis=1)
