@@ -29,6 +29,9 @@ Scenes:
   plus two 3-D density fields on one grid (the .npz): the sediment (mineral particles) and
   the river water, whose CDOM spreads wider and mixes deeper than the sediment; radiometers 1 m above the plume and above clear water for Rrs (``plume_rrs``,
   ``scripts/plume_rrs_plot.py``; docs/blender.md, "The sediment plume").
+- ``seagrass_meadow.blend``: a seagrass meadow of Geometry Nodes instances (about 10,000 copies
+  of one blade) and a rock three times (linked duplicates) under the showcase's waves, 4 m
+  deep, with Ed under and over the canopy: instanced geometry as artists build it.
 """
 from __future__ import annotations
 
@@ -149,6 +152,170 @@ def underwater_scene_dict(resolution=UNDERWATER_RESOLUTION, samples: int = 16) -
         "settings": {"integrator": "hybrid", "samples": samples, "seed": 11, "forward_cone_deg": "auto",
                      "radiometer_samples": 8192, "beam_max_level": 3},
     }
+
+
+# --------------------------------------------------------------------------------------------
+# seagrass_meadow.blend: a meadow of Geometry Nodes instances under waves
+# --------------------------------------------------------------------------------------------
+
+MEADOW_DENSITY = 160.0  # blades per m^2 on the 8 x 8 m bed: about 10,000 copies
+
+
+def seagrass_blade(segments: int = 40) -> tuple[np.ndarray, np.ndarray]:
+    """A seagrass blade in its own frame: a ribbon 1 cm wide and 0.6 m long rising from the
+    origin along z, bending over along +x and twisting a little (2 x segments triangles)."""
+    s = np.linspace(0.0, 1.0, segments + 1)
+    spine = np.stack([0.18 * s ** 2, np.zeros_like(s), 0.58 * s - 0.05 * s ** 2], axis=1)
+    twist = 0.6 * s
+    half = 0.005 * (1.0 - 0.5 * s ** 4)  # narrowing to a rounded tip
+    side = np.stack([np.zeros_like(s), np.cos(twist), np.sin(twist)], axis=1) * half[:, None]
+    v = np.concatenate([spine - side, spine + side])
+    i = np.arange(segments)
+    n = segments + 1
+    t = np.concatenate([np.stack([i, i + 1, n + i], 1), np.stack([i + 1, n + i + 1, n + i], 1)])
+    return v, t
+
+
+def meadow_scene_dict(resolution=UNDERWATER_RESOLUTION, samples: int = 16) -> dict:
+    """seagrass_meadow.blend's scene before its Geometry Nodes: the underwater example's sea
+    and waves over a sandy bottom 4 m deep, the blade (hidden: the meadow's instances show it),
+    a rock placed three times (linked duplicates), a diver's camera looking across the meadow
+    towards the sun, and Ed radiometers under the canopy and above it."""
+    import trimesh
+    v, t = wave_patch(8.0, 96, [(0.03, 1, 0, 0.0), (0.02, 1, 2, 1.1), (0.035, 4, 3, 0.4),
+                                (0.03, -5, 2, 2.3), (0.012, 2, -6, 0.7)])
+    bv, bt = seagrass_blade()
+    rock = trimesh.creation.icosphere(subdivisions=3, radius=0.45)
+    rock.vertices[:, 2] *= 0.6
+    d = underwater_scene_dict(resolution, samples)
+    d.update({
+        "name": "seagrass_meadow",
+        "materials": {"sand": {"type": "lambertian", "reflectance": [0.42, 0.38, 0.30]},
+                      "seagrass": {"type": "lambertian", "reflectance": [0.10, 0.22, 0.06]},
+                      "rock": {"type": "lambertian", "reflectance": [0.30, 0.27, 0.22]}},
+        "meshes": [{"name": "seagrass blade", "material": "seagrass", "vertices": bv.tolist(),
+                    "triangles": t_list(bt)},
+                   {"name": "rock", "material": "rock", "vertices": (rock.vertices + (1.2, 4.5, -3.85)).tolist(),
+                    "triangles": rock.faces.tolist()}],
+        "water": [{"name": "sea", "type": "ocean", "ior": 1.34,
+                   "surface": {"kind": "patch", "vertices": v.tolist(), "triangles": t.tolist(),
+                               "period": [8.0, 8.0]},
+                   "bottom": {"depth": 4.0, "material": "sand"},
+                   "iops": {"absorption": [0.28, 0.05, 0.025], "b": [0.12, 0.12, 0.12],
+                            "phase": {"type": "petzold"}}}],
+        "cameras": [{"name": "diver", "type": "perspective", "position": [0.0, -0.5, -2.6],
+                     "look_at": [0.6, 5.0, -3.6], "up": [0, 0, 1], "fov_deg": 80.0,
+                     "resolution": list(resolution)}],
+        # Ed on a 3 x 3 m square of the bed under the canopy and 1 m above the bed, over it:
+        # the canopy's transmission of the downwelling light, averaged over its shadows.
+        "radiometer_arrays": [{"name": name, "quantities": ["Ed"],
+                               "positions": [[x, y, z] for x in (-1.5, -0.5, 0.5, 1.5)
+                                             for y in (3.0, 4.0, 5.0, 6.0)]}
+                              for name, z in (("under_canopy", -3.97), ("above_canopy", -3.0))],
+    })
+    return d
+
+
+def t_list(t) -> list:
+    return np.asarray(t, dtype=np.int64).tolist()
+
+
+def _gn_socket(tree, name: str, in_out: str, socket_type: str) -> None:
+    """A group socket, in Blender 4+ (tree.interface) and 3.4 (tree.inputs / outputs)."""
+    if hasattr(tree, "interface"):
+        tree.interface.new_socket(name=name, in_out=in_out, socket_type=socket_type)
+    else:
+        (tree.inputs if in_out == "INPUT" else tree.outputs).new(socket_type, name)
+
+
+def _socket(sockets, name: str, kind: str | None = None):
+    """A node's socket by name (and type: Random Value has one per data type)."""
+    return next(x for x in sockets if x.name == name and (kind is None or x.type == kind))
+
+
+def meadow_nodes(blade, density: float = MEADOW_DENSITY, seed: int = 3):
+    """Geometry Nodes: points distributed on the carrier's faces, each an instance of the blade
+    turned about z, leaning up to 0.3 rad and scaled 0.6-1.3; the carrier itself not drawn."""
+    import bpy
+    tree = bpy.data.node_groups.new("Seagrass meadow", "GeometryNodeTree")
+    _gn_socket(tree, "Geometry", "INPUT", "NodeSocketGeometry")
+    _gn_socket(tree, "Geometry", "OUTPUT", "NodeSocketGeometry")
+    n, link = tree.nodes, tree.links.new
+    gin, gout = n.new("NodeGroupInput"), n.new("NodeGroupOutput")
+    dist = n.new("GeometryNodeDistributePointsOnFaces")
+    dist.distribute_method = "RANDOM"
+    dist.inputs["Density"].default_value = density
+    dist.inputs["Seed"].default_value = seed
+    info = n.new("GeometryNodeObjectInfo")
+    info.inputs["Object"].default_value = blade
+    info.inputs["As Instance"].default_value = True
+    inst = n.new("GeometryNodeInstanceOnPoints")
+    rot = n.new("FunctionNodeRandomValue")
+    rot.data_type = "FLOAT_VECTOR"
+    _socket(rot.inputs, "Min", "VECTOR").default_value = (-0.3, -0.3, 0.0)
+    _socket(rot.inputs, "Max", "VECTOR").default_value = (0.3, 0.3, 2.0 * math.pi)
+    _socket(rot.inputs, "Seed").default_value = seed + 1
+    size = n.new("FunctionNodeRandomValue")
+    size.data_type = "FLOAT"
+    _socket(size.inputs, "Min", "VALUE").default_value = 0.6
+    _socket(size.inputs, "Max", "VALUE").default_value = 1.3
+    _socket(size.inputs, "Seed").default_value = seed + 2
+    link(_socket(gin.outputs, "Geometry"), dist.inputs["Mesh"])
+    link(dist.outputs["Points"], inst.inputs["Points"])
+    link(info.outputs["Geometry"], inst.inputs["Instance"])
+    link(_socket(rot.outputs, "Value", "VECTOR"), inst.inputs["Rotation"])
+    link(_socket(size.outputs, "Value", "VALUE"), inst.inputs["Scale"])
+    link(inst.outputs["Instances"], _socket(gout.inputs, "Geometry"))
+    return tree
+
+
+def build_seagrass_meadow(out_dir: Path) -> Path:
+    """seagrass_meadow.blend: about 10,000 Geometry Nodes instances of a seagrass blade on an
+    8 x 8 m bed, a rock three times (linked duplicates), under the showcase's waves: the
+    meadow exports as one mesh and its transforms (docs/blender.md), and the caustics play on
+    the blades and the sand between them."""
+    photic = _import_engine()
+    import bpy
+    addon = photic.cli.load_addon()
+    if not hasattr(bpy.types.Scene, "photic"):
+        addon.register()
+    from importlib import import_module
+    importer = import_module("photic_blender.importer")
+    from photic.scene import Scene
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bscene = bpy.context.scene
+    created = importer.import_scene(Scene.from_dict(meadow_scene_dict()), bscene)
+    blade = created["seagrass blade"]
+    # The blade lives in a collection excluded from the view layer, as artists keep the
+    # sources of their instances: drawn only through the meadow's copies.
+    parts = bpy.data.collections.new("meadow parts")
+    bscene.collection.children.link(parts)
+    for c in list(blade.users_collection):
+        c.objects.unlink(blade)
+    parts.objects.link(blade)
+    bpy.context.view_layer.layer_collection.children[parts.name].exclude = True
+    rock = created["rock"]
+    for k, offset in enumerate([(-2.3, 1.4, 0.02), (2.1, 2.9, -0.05)]):
+        copy = rock.copy()  # a linked duplicate: the same mesh data
+        copy.name = f"rock.{k + 1:03d}"
+        copy.location = offset
+        copy.rotation_euler = (0.0, 0.0, 1.3 * (k + 1))
+        copy.scale = (1.2 - 0.3 * k, 0.9, 1.0)
+        bscene.collection.objects.link(copy)
+    bed = bpy.data.meshes.new("meadow bed")
+    bed.from_pydata([(-4.0, 0.5, -3.99), (4.0, 0.5, -3.99), (4.0, 8.5, -3.99), (-4.0, 8.5, -3.99)],
+                    [], [(0, 1, 2, 3)])
+    carrier = bpy.data.objects.new("seagrass meadow", bed)
+    bscene.collection.objects.link(carrier)
+    mod = carrier.modifiers.new("Seagrass meadow", "NODES")
+    mod.node_group = meadow_nodes(blade)
+    bscene.photic.denoise = True
+    path = out_dir / "seagrass_meadow.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)
+    print(f"wrote {path}")
+    return path
 
 
 # --------------------------------------------------------------------------------------------
@@ -382,7 +549,8 @@ def plume_rrs(table) -> dict:
             for name in PLUME_RADIOMETERS}
 
 
-EXAMPLES = ("stepped_pool", "canonical_problem2", "underwater_objects", "sediment_plume")
+EXAMPLES = ("stepped_pool", "canonical_problem2", "underwater_objects", "sediment_plume",
+            "seagrass_meadow")
 
 
 def build(out_dir: Path, only=None) -> list[Path]:
@@ -421,6 +589,8 @@ def build(out_dir: Path, only=None) -> list[Path]:
         print(f"wrote {path}")
     if "sediment_plume" in only:
         written += [build_sediment_plume(out_dir), out_dir / "sediment_plume.npz"]
+    if "seagrass_meadow" in only:
+        written.append(build_seagrass_meadow(out_dir))
     return written
 
 

@@ -99,7 +99,8 @@ def exr_channels(path):
 
 @pytest.mark.parametrize("name, has_radiometers", [("canonical_problem2", True),
                                                    ("stepped_pool", False),
-                                                   ("underwater_objects", False)])
+                                                   ("underwater_objects", False),
+                                                   ("seagrass_meadow", True)])
 def test_example_blends_render_through_the_addon(tmp_path, name, has_radiometers):
     summary = render_blend(BLENDS / f"{name}.blend", out_dir=tmp_path, samples=2,
                            radiometer_samples=8192, resolution_percentage=50)
@@ -123,7 +124,9 @@ def test_example_blends_render_through_the_addon(tmp_path, name, has_radiometers
         csv = Path(summary["tables"][0])
         assert csv.is_file() and csv.name == f"{name}_0001_radiometers.csv"
         rows = [line for line in csv.read_text().splitlines() if not line.startswith("#")]
-        assert len(rows) == 1 + 9  # header + 3 depths x (Ed, Eou, radiance)
+        # header + 3 depths x (Ed, Eou, radiance); the meadow: Ed at 16 points under and over,
+        # 3 bands
+        assert len(rows) == 1 + {"canonical_problem2": 9, "seagrass_meadow": 96}[name]
         assert final_render.LAST_RADIOMETERS[bpy.context.scene.name]["rows"]
 
 
