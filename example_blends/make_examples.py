@@ -59,6 +59,18 @@ def _import_engine():
     return photic
 
 
+def _blender():
+    """(bpy, the add-on's importer, photic's Scene) with the add-on registered."""
+    photic = _import_engine()
+    import bpy
+    addon = photic.cli.load_addon()
+    if not hasattr(bpy.types.Scene, "photic"):
+        addon.register()
+    from importlib import import_module
+    from photic.scene import Scene
+    return bpy, import_module("photic_blender.importer"), Scene
+
+
 def problem2_scene_dict() -> dict:
     """Canonical problem 2 (omega0 0.9) with its radiometers as one vertical array; the
     radiance cap angle is written as Blender holds it (float32, 7 significant digits) and the
@@ -274,14 +286,7 @@ def build_seagrass_meadow(out_dir: Path) -> Path:
     8 x 8 m bed, a rock three times (linked duplicates), under the showcase's waves: the
     meadow exports as one mesh and its transforms (docs/blender.md), and the caustics play on
     the blades and the sand between them."""
-    photic = _import_engine()
-    import bpy
-    addon = photic.cli.load_addon()
-    if not hasattr(bpy.types.Scene, "photic"):
-        addon.register()
-    from importlib import import_module
-    importer = import_module("photic_blender.importer")
-    from photic.scene import Scene
+    bpy, importer, Scene = _blender()
 
     out_dir.mkdir(parents=True, exist_ok=True)
     bpy.ops.wm.read_homefile(use_empty=True)
@@ -505,14 +510,7 @@ def plume_scene_dict(resolution=(480, 270), samples: int = 96) -> dict:
 
 def build_sediment_plume(out_dir: Path, grid_shape=PLUME_GRID_SHAPE) -> Path:
     """sediment_plume.blend and, beside it, sediment_plume.npz (the density)."""
-    photic = _import_engine()
-    import bpy
-    addon = photic.cli.load_addon()
-    if not hasattr(bpy.types.Scene, "photic"):
-        addon.register()
-    from importlib import import_module
-    importer = import_module("photic_blender.importer")
-    from photic.scene import Scene
+    bpy, importer, Scene = _blender()
 
     out_dir.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(out_dir / "sediment_plume.npz", density=plume_density(grid_shape),
@@ -556,14 +554,7 @@ EXAMPLES = ("stepped_pool", "canonical_problem2", "underwater_objects", "sedimen
 def build(out_dir: Path, only=None) -> list[Path]:
     """Write the examples (``only``: a list of their names) into ``out_dir``."""
     only = set(only or EXAMPLES)
-    photic = _import_engine()
-    import bpy
-    addon = photic.cli.load_addon()
-    if not hasattr(bpy.types.Scene, "photic"):
-        addon.register()
-    from importlib import import_module
-    importer = import_module("photic_blender.importer")
-    from photic.scene import Scene
+    bpy, importer, Scene = _blender()
     from photic.scenes import stepped_pool
 
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -270,33 +270,61 @@ def test_a_mesh_patch_that_does_not_tile_is_named(empty):
 # Geometry Nodes instances
 # ------------------------------------------------------------------------------------------
 
-def scatter_spheres(carrier, count_side=10, radius=0.2, material=None, keep_carrier=True):
+def scatter_spheres(carrier, count_side=10, radius=0.2, material=None, keep_carrier=True, size=8.0,
+                    subdivisions=None, transforms=False):
+    """A Geometry Nodes modifier on ``carrier``: an ico sphere instanced on the count_side^2
+    points of a size x size grid (Instance on Points), the carrier kept or not; with
+    ``transforms``, each copy randomly rotated and scaled, about half of them mirrored (scale
+    -1 on x)."""
     mod = carrier.modifiers.new("Scatter", "NODES")
     tree = bpy.data.node_groups.new("Scatter", "GeometryNodeTree")
     tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
     tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    n = tree.nodes
+    n, link = tree.nodes, tree.links.new
     gi, go = n.new("NodeGroupInput"), n.new("NodeGroupOutput")
     grid = n.new("GeometryNodeMeshGrid")
     grid.inputs["Vertices X"].default_value = count_side
     grid.inputs["Vertices Y"].default_value = count_side
-    grid.inputs["Size X"].default_value = grid.inputs["Size Y"].default_value = 8.0
+    grid.inputs["Size X"].default_value = grid.inputs["Size Y"].default_value = size
     ico = n.new("GeometryNodeMeshIcoSphere")
     ico.inputs["Radius"].default_value = radius
+    if subdivisions is not None:
+        ico.inputs["Subdivisions"].default_value = subdivisions
     iop = n.new("GeometryNodeInstanceOnPoints")
     join = n.new("GeometryNodeJoinGeometry")
     src = ico.outputs["Mesh"]
     if material is not None:
         sm = n.new("GeometryNodeSetMaterial")
         sm.inputs["Material"].default_value = material
-        tree.links.new(src, sm.inputs["Geometry"])
+        link(src, sm.inputs["Geometry"])
         src = sm.outputs["Geometry"]
-    tree.links.new(grid.outputs["Mesh"], iop.inputs["Points"])
-    tree.links.new(src, iop.inputs["Instance"])
-    tree.links.new(iop.outputs["Instances"], join.inputs["Geometry"])
+    link(grid.outputs["Mesh"], iop.inputs["Points"])
+    link(src, iop.inputs["Instance"])
+    if transforms:
+        rot = n.new("FunctionNodeRandomValue")
+        rot.data_type = "FLOAT_VECTOR"
+        rot.inputs["Min"].default_value, rot.inputs["Max"].default_value = (0, 0, 0), (3, 3, 3)
+        scale = n.new("FunctionNodeRandomValue")
+        scale.data_type = "FLOAT_VECTOR"
+        scale.inputs["Min"].default_value, scale.inputs["Max"].default_value = (0.5,) * 3, (1.5,) * 3
+        scale.inputs["Seed"].default_value = 7
+        coin = n.new("FunctionNodeRandomValue")
+        coin.data_type = "BOOLEAN"
+        coin.inputs["Seed"].default_value = 11
+        mirror = n.new("GeometryNodeSwitch")
+        mirror.input_type = "VECTOR"
+        mirror.inputs["False"].default_value, mirror.inputs["True"].default_value = (1, 1, 1), (-1, 1, 1)
+        mul = n.new("ShaderNodeVectorMath")
+        mul.operation = "MULTIPLY"
+        link(coin.outputs[3], mirror.inputs["Switch"])
+        link(scale.outputs[0], mul.inputs[0])
+        link(mirror.outputs[0], mul.inputs[1])
+        link(rot.outputs[0], iop.inputs["Rotation"])
+        link(mul.outputs[0], iop.inputs["Scale"])
+    link(iop.outputs["Instances"], join.inputs["Geometry"])
     if keep_carrier:
-        tree.links.new(gi.outputs[0], join.inputs["Geometry"])
-    tree.links.new(join.outputs[0], go.inputs[0])
+        link(gi.outputs[0], join.inputs["Geometry"])
+    link(join.outputs[0], go.inputs[0])
     mod.node_group = tree
     return mod
 

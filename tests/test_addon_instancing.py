@@ -18,7 +18,7 @@ import bpy  # noqa: E402
 
 from test_addon_blender_features import (add_camera, add_mesh, add_plane, add_sun, combined,  # noqa: E402,F401
                                          empty, export_current, node_material, photic, render,
-                                         uniform_world)
+                                         scatter_spheres, uniform_world)
 
 
 def wedge(name="Wedge", location=(0, 0, 0)):
@@ -29,57 +29,10 @@ def wedge(name="Wedge", location=(0, 0, 0)):
 
 
 def scatter(carrier, side, subdivisions=1, radius=0.2, transforms=True, material=None):
-    """A Geometry Nodes modifier on ``carrier``: an ico sphere instanced on the side x side
-    points of a grid (Instance on Points), the carrier kept; with ``transforms``, each copy
-    randomly rotated and scaled, about half of them mirrored (scale -1 on x)."""
-    mod = carrier.modifiers.new("Scatter", "NODES")
-    tree = bpy.data.node_groups.new("Scatter", "GeometryNodeTree")
-    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    n, link = tree.nodes, tree.links.new
-    gi, go = n.new("NodeGroupInput"), n.new("NodeGroupOutput")
-    grid = n.new("GeometryNodeMeshGrid")
-    grid.inputs["Vertices X"].default_value = grid.inputs["Vertices Y"].default_value = side
-    grid.inputs["Size X"].default_value = grid.inputs["Size Y"].default_value = 0.5 * side
-    ico = n.new("GeometryNodeMeshIcoSphere")
-    ico.inputs["Radius"].default_value = radius
-    ico.inputs["Subdivisions"].default_value = subdivisions
-    iop = n.new("GeometryNodeInstanceOnPoints")
-    join = n.new("GeometryNodeJoinGeometry")
-    src = ico.outputs["Mesh"]
-    if material is not None:
-        sm = n.new("GeometryNodeSetMaterial")
-        sm.inputs["Material"].default_value = material
-        link(src, sm.inputs["Geometry"])
-        src = sm.outputs["Geometry"]
-    link(grid.outputs["Mesh"], iop.inputs["Points"])
-    link(src, iop.inputs["Instance"])
-    if transforms:
-        rot = n.new("FunctionNodeRandomValue")
-        rot.data_type = "FLOAT_VECTOR"
-        rot.inputs["Min"].default_value, rot.inputs["Max"].default_value = (0, 0, 0), (3, 3, 3)
-        size = n.new("FunctionNodeRandomValue")
-        size.data_type = "FLOAT_VECTOR"
-        size.inputs["Min"].default_value, size.inputs["Max"].default_value = (0.5,) * 3, (1.5,) * 3
-        size.inputs["Seed"].default_value = 7
-        coin = n.new("FunctionNodeRandomValue")
-        coin.data_type = "BOOLEAN"
-        coin.inputs["Seed"].default_value = 11
-        mirror = n.new("GeometryNodeSwitch")
-        mirror.input_type = "VECTOR"
-        mirror.inputs["False"].default_value, mirror.inputs["True"].default_value = (1, 1, 1), (-1, 1, 1)
-        mul = n.new("ShaderNodeVectorMath")
-        mul.operation = "MULTIPLY"
-        link(coin.outputs[3], mirror.inputs["Switch"])
-        link(size.outputs[0], mul.inputs[0])
-        link(mirror.outputs[0], mul.inputs[1])
-        link(rot.outputs[0], iop.inputs["Rotation"])
-        link(mul.outputs[0], iop.inputs["Scale"])
-    link(iop.outputs["Instances"], join.inputs["Geometry"])
-    link(gi.outputs[0], join.inputs["Geometry"])
-    link(join.outputs[0], go.inputs[0])
-    mod.node_group = tree
-    return mod
+    """An ico sphere instanced on the side x side points of a grid on ``carrier`` (kept), each
+    copy randomly rotated and scaled, about half mirrored (``scatter_spheres``)."""
+    return scatter_spheres(carrier, count_side=side, radius=radius, material=material, size=0.5 * side,
+                           subdivisions=subdivisions, transforms=transforms)
 
 
 def world_triangles(select):
