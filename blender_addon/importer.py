@@ -54,16 +54,82 @@ def _mesh_object(name, vertices, triangles, collection):
     return obj
 
 
+# More copies than this are imported as the points of one object with a Geometry Nodes
+# modifier (Instance on Points), not as that many objects: 10^5 objects take seconds to make
+# and to evaluate, and swamp the Outliner.
+POINTS_ABOVE = 100
+
+
 def _copies(obj, instances, collection) -> None:
     """An instanced mesh's copies as linked duplicates of ``obj`` (one mesh data-block): ``obj``
     is the first, each stands where its transform [R | t] puts it (which exports back as the
     same instanced mesh). Blender keeps an object's transform as location, rotation and scale:
-    a sheared transform loses its shear."""
+    a sheared transform loses its shear. Above POINTS_ABOVE copies: ``_copies_on_points``."""
+    if len(instances) > POINTS_ABOVE:
+        _copies_on_points(obj, np.asarray(instances, float), collection)
+        return
     objects = [obj] + [obj.copy() for _ in range(len(instances) - 1)]
     for k, (target, rt) in enumerate(zip(objects, np.asarray(instances, float))):
         if k:
             collection.objects.link(target)
         target.matrix_world = Matrix([*rt.tolist(), [0.0, 0.0, 0.0, 1.0]])
+
+
+def euler_and_scale(r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 3) XYZ Euler angles (rad) and (N, 3) scales with R = Rz Ry Rx diag(scale) for the
+    (N, 3, 3) linear parts of transforms, as Instance on Points composes them: the scales are
+    the columns' lengths (the first negative where R mirrors), the rotation what is left (a
+    shear is lost)."""
+    scale = np.linalg.norm(r, axis=1)
+    scale[:, 0] *= np.where(np.linalg.det(r) < 0, -1.0, 1.0)
+    q = r / scale[:, None, :]
+    x = np.arctan2(q[:, 2, 1], q[:, 2, 2])
+    y = np.arcsin(np.clip(-q[:, 2, 0], -1.0, 1.0))
+    z = np.arctan2(q[:, 1, 0], q[:, 0, 0])
+    return np.stack([x, y, z], axis=1), scale
+
+
+def _new_socket(tree, name: str, in_out: str) -> None:
+    if hasattr(tree, "interface"):  # Blender 4+
+        tree.interface.new_socket(name=name, in_out=in_out, socket_type="NodeSocketGeometry")
+    else:
+        (tree.inputs if in_out == "INPUT" else tree.outputs).new("NodeSocketGeometry", name)
+
+
+def _copies_on_points(obj, instances, collection) -> None:
+    """Many copies of ``obj``: a point per copy (at its translation, with its rotation and
+    scale as the attributes photic_rotation and photic_scale) on an object named after it,
+    whose Geometry Nodes modifier puts an instance of ``obj`` on each point; ``obj`` itself is
+    hidden (drawn only through its copies). Exports back as the same instanced mesh."""
+    rot, scale = euler_and_scale(instances[:, :, :3])
+    points = bpy.data.meshes.new(f"{obj.name} copies")
+    points.vertices.add(len(instances))
+    points.vertices.foreach_set("co", np.ascontiguousarray(instances[:, :, 3], np.float32).ravel())
+    for name, values in (("photic_rotation", rot), ("photic_scale", scale)):
+        attribute = points.attributes.new(name, "FLOAT_VECTOR", "POINT")
+        attribute.data.foreach_set("vector", np.ascontiguousarray(values, np.float32).ravel())
+    carrier = bpy.data.objects.new(f"{obj.name} copies", points)
+    collection.objects.link(carrier)
+    tree = bpy.data.node_groups.new(f"{obj.name} copies", "GeometryNodeTree")
+    _new_socket(tree, "Geometry", "INPUT")
+    _new_socket(tree, "Geometry", "OUTPUT")
+    n, link = tree.nodes, tree.links.new
+    gin, gout = n.new("NodeGroupInput"), n.new("NodeGroupOutput")
+    info = n.new("GeometryNodeObjectInfo")
+    info.inputs["Object"].default_value = obj
+    info.inputs["As Instance"].default_value = True
+    on_points = n.new("GeometryNodeInstanceOnPoints")
+    link(next(x for x in gin.outputs if x.name == "Geometry"), on_points.inputs["Points"])
+    link(info.outputs["Geometry"], on_points.inputs["Instance"])
+    for name, socket in (("photic_rotation", "Rotation"), ("photic_scale", "Scale")):
+        read = n.new("GeometryNodeInputNamedAttribute")
+        read.data_type = "FLOAT_VECTOR"
+        read.inputs["Name"].default_value = name
+        link(next(x for x in read.outputs if x.name == "Attribute" and x.type == "VECTOR"),
+             on_points.inputs[socket])
+    link(on_points.outputs["Instances"], next(x for x in gout.inputs if x.name == "Geometry"))
+    carrier.modifiers.new("Photic copies", "NODES").node_group = tree
+    obj.hide_viewport = obj.hide_render = True
 
 
 def _set_bands(props, bands) -> None:

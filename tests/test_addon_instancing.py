@@ -325,3 +325,61 @@ def test_the_meadow_example_exports_its_blades_as_instances():
     blade = next(m for m in scene.meshes if m.name == "seagrass blade")
     assert len(blade.mesh.triangles) == 80 and blade.material == "seagrass"
     assert info.instanced_copies == copies["rock"] + copies["seagrass blade"]
+
+
+def test_import_of_many_copies_makes_points_with_a_geometry_nodes_modifier(empty, tmp_path):
+    """More than importer.POINTS_ABOVE copies: one object whose points carry the copies'
+    rotations and scales and a Geometry Nodes modifier that instances the (hidden) mesh on
+    them, not an object per copy; it exports back to the same transforms, in the viewport and
+    in a final render's depsgraph, mirrored and unevenly scaled copies included."""
+    from photic_blender.batch import export_frames
+    from photic_blender.importer import POINTS_ABOVE, import_scene
+    S = photic.scene
+    n = POINTS_ABOVE + 50
+    rng = np.random.default_rng(8)
+    x = np.zeros((n, 3, 4))
+    for k in range(n):
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))  # rotations, about half of them mirrored
+        x[k, :, :3] = q * rng.uniform(0.5, 1.5, 3)
+        x[k, :, 3] = rng.uniform(-5.0, 5.0, 3)
+    v = np.array([(0, 0, 0), (1, 0, 0), (0, 0.6, 0), (0, 0, 0.8)], float)
+    t = np.array([(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)])
+    src = S.Scene(name="Many", bands=[S.Band("550", 550.0, 10.0)],
+                  materials={"stone": S.Material("stone", [0.3])},
+                  meshes=[S.MeshObject("Stone", S.TriangleMesh(v, t), "stone", instances=x)],
+                  sun=S.Sun(zenith_deg=30.0, azimuth_deg=0.0, irradiance=[1.0]),
+                  cameras=[S.Camera("cam", "perspective", position=[0, 0, 10], direction=[0, 0, -1],
+                                    up=[0, 1, 0], resolution=(8, 8), fov_deg=40.0)])
+    src.validate()
+    created = import_scene(src, empty)
+    assert len([o for o in bpy.data.objects if o.data is created["Stone"].data]) == 1
+    assert created["Stone"].hide_render and "Stone copies" in bpy.data.objects
+    scene, info = export_current()
+    (m,) = scene.meshes
+    assert m.copies == n and info.instanced_copies == n
+    np.testing.assert_allclose(m.instances, x, atol=2e-5)
+    np.testing.assert_allclose(m.mesh.vertices, v, atol=1e-6)
+    path = tmp_path / "many.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    (_, rendered), = export_frames(path)
+    np.testing.assert_allclose(rendered.meshes[0].instances, x, atol=2e-5)
+
+
+def test_euler_and_scale_rebuild_the_transforms():
+    from photic_blender.importer import euler_and_scale
+    rng = np.random.default_rng(2)
+    q = np.array([np.linalg.qr(rng.normal(size=(3, 3)))[0] for _ in range(200)])
+    r = q * rng.uniform(0.2, 3.0, (200, 1, 3))
+    euler, scale = euler_and_scale(r)
+
+    def rot(axis, a):
+        c, s = np.cos(a), np.sin(a)
+        m = np.zeros((len(a), 3, 3))
+        i, j = [(1, 2), (0, 2), (0, 1)][axis]
+        m[:, axis, axis] = 1.0
+        m[:, i, i] = m[:, j, j] = c
+        m[:, i, j], m[:, j, i] = (-s, s) if axis != 1 else (s, -s)
+        return m
+
+    back = rot(2, euler[:, 2]) @ rot(1, euler[:, 1]) @ rot(0, euler[:, 0]) * scale[:, None, :]
+    np.testing.assert_allclose(back, r, atol=1e-9)
