@@ -33,13 +33,14 @@ double max_component(const Spectrum& s, int nb) {
 }  // namespace
 
 void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int medium, Rng& rng,
-                               Spectrum* out, double* deferred_t) const {
+                               Spectrum* out, double* deferred_t, Spectrum* raman) const {
     *out = Spectrum();
+    if (raman) *raman = Spectrum();
     double t, pdf;
     if (!beam_scatter_point(waters[medium], d, T, rng, &t, &pdf)) return;
     thread_local BeamSample beams[kMaxBeams];  // per thread: zeroing 64 spectra per call costs
     const int n = beams_at(o + d * t, medium, beams, kMaxBeams);
-    beam_scatter_sum(o, d, t, pdf, medium, beams, n, out, deferred_t);
+    beam_scatter_sum(o, d, t, pdf, medium, beams, n, out, deferred_t, raman);
 }
 
 bool Scene::beam_scatter_point(const Water& w, const Vec3& d, double T, Rng& rng, double* t_out,
@@ -71,9 +72,11 @@ bool Scene::beam_scatter_point(const Water& w, const Vec3& d, double T, Rng& rng
 }
 
 void Scene::beam_scatter_sum(const Vec3& o, const Vec3& d, double t, double pdf, int medium,
-                             const BeamSample* beams, int n, Spectrum* out, double* deferred_t) const {
+                             const BeamSample* beams, int n, Spectrum* out, double* deferred_t,
+                             Spectrum* raman) const {
     const Water& w = waters[medium];
     *out = Spectrum();
+    if (raman) *raman = Spectrum();
     if (n == 0) return;
     const Vec3 x = o + d * t;
     // The local scattering at x and the attenuation back to o (through the layers or voxels
@@ -89,8 +92,18 @@ void Scene::beam_scatter_sum(const Vec3& o, const Vec3& d, double t, double pdf,
     const double cone_x = 1.0 - std::cos(cone_half_angle);
     const size_t nc = w.components.size();
     const bool spread_phase = beam_phase_spread();
+    const bool inelastic = raman && !w.raman.empty();
     for (int j = 0; j < n; ++j) {
         double xs = std::max(0.0, 1.0 + dot(beams[j].d, d));  // 1 - cos(psi)
+        if (inelastic) {  // (Raman light leaves the beam's band: no forward cone for it)
+            const double mu = 1.0 - xs;
+            const double p = 3.0 / (4.0 * kPi * (3.0 + w.raman_rho)) * (1.0 + w.raman_rho * mu * mu);
+            for (int kb = 0; kb < nbands; ++kb) {
+                double r = 0.0;
+                for (int ki = 0; ki < nbands; ++ki) r += w.raman[size_t(kb) * nbands + ki] * beams[j].e.v[ki];
+                raman->v[kb] += att[kb] * p * r / pdf;
+            }
+        }
         double pv[16];
         if (beams[j].spread && spread_phase) {  // (the cone is in the disk's mean)
             for (size_t ci = 0; ci < nc; ++ci) pv[ci] = beam_phase(w.components[ci].phase, xs);
@@ -146,9 +159,9 @@ Vec3 Scene::sample_beam_direction(const Water& w, const Vec3& beam_d, Rng& rng) 
     return phases[w.components[pick].phase].sample_direction(-beam_d, u1, u2);
 }
 
-double* Scene::queue_beam_term(BeamTerms& b, Spectrum* volume, const Vec3& o, const Vec3& d, double t, double pdf,
+double* Scene::queue_beam_term(BeamTerms& b, Components* out, const Vec3& o, const Vec3& d, double t, double pdf,
                                int medium, double den) const {
-    if (b.n == BeamTerms::kMax) settle_beam_terms(b, volume);
+    if (b.n == BeamTerms::kMax) settle_beam_terms(b, out);
     BeamTerms::Term& e = b.terms[b.n++];
     e.o[0] = o.x; e.o[1] = o.y; e.o[2] = o.z;
     e.d[0] = d.x; e.d[1] = d.y; e.d[2] = d.z;
@@ -159,7 +172,7 @@ double* Scene::queue_beam_term(BeamTerms& b, Spectrum* volume, const Vec3& o, co
     return e.weight;
 }
 
-void Scene::settle_beam_terms(BeamTerms& b, Spectrum* volume) const {
+void Scene::settle_beam_terms(BeamTerms& b, Components* out) const {
     // All the points' grid cells fetched ahead; then all their candidates found (the prisms
     // that pass fetched ahead); then each term's beams evaluated and added in order. (Fetching
     // the candidates' keys ahead too, a stage of its own, cost more than it saved below wave
@@ -182,9 +195,12 @@ void Scene::settle_beam_terms(BeamTerms& b, Spectrum* volume) const {
         const Vec3 x = point(e);
         int n = flat_beams_at(x, e.medium, beams, kMaxBeams, true);
         n = eval_candidates(prisms, found.data() + first[i], first[i + 1] - first[i], x, beams, n, kMaxBeams, true);
-        Spectrum I;
-        beam_scatter_sum(vec(e.o), vec(e.d), e.t, e.pdf, e.medium, beams, n, &I, nullptr);
-        for (int k = 0; k < nbands; ++k) volume->v[k] += e.weight[k] * I.v[k] / e.den;
+        Spectrum I, R;
+        beam_scatter_sum(vec(e.o), vec(e.d), e.t, e.pdf, e.medium, beams, n, &I, nullptr, &R);
+        for (int k = 0; k < nbands; ++k) {
+            out->beam_volume.v[k] += e.weight[k] * I.v[k] / e.den;
+            out->raman.v[k] += e.weight[k] * R.v[k] / e.den;
+        }
     }
     b.n = 0;
 }
@@ -194,7 +210,7 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
     BeamTerms terms;
     Components out = trace_path(o, d, medium, sun_covered, beam_covered, rng, c, first_beam_weight, camera,
                                 reflect_covered, terms);
-    settle_beam_terms(terms, &out.beam_volume);
+    settle_beam_terms(terms, &out);
     return out;
 }
 
@@ -258,11 +274,11 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 if (!walk.beam_point()) {  // (no point drawn: the term is 0)
                     double tb, pdf;
                     if (beam_scatter_point(w, d, t_hit, rng, &tb, &pdf)) {
-                        double* weight = queue_beam_term(terms, &out.beam_volume, o, d, tb, pdf, medium, 1.0);
+                        double* weight = queue_beam_term(terms, &out, o, d, tb, pdf, medium, 1.0);
                         for (int kb = 0; kb < nb; ++kb) weight[kb] = bv_weight * beta.v[kb] * walk.absorbed(w, kb);
                     }
                 } else {  // gridded water: the walk attenuates it, added when the walk passes it
-                    settle_beam_terms(terms, &out.beam_volume);
+                    settle_beam_terms(terms, &out);
                     Spectrum I, contribution;
                     beam_scatter_along(o, d, t_hit, medium, rng, &I, walk.beam_point());
                     for (int kb = 0; kb < nb; ++kb) contribution.v[kb] = bv_weight * beta.v[kb] * walk.absorbed(w, kb) * I.v[kb];
@@ -408,7 +424,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                         c.segments++;
                         double tb, pdf;
                         if (beam_scatter_point(w, wb, hb.valid ? hb.t : kInf, rng, &tb, &pdf)) {
-                            double* weight = queue_beam_term(terms, &out.beam_volume, o, wb, tb, pdf, medium,
+                            double* weight = queue_beam_term(terms, &out, o, wb, tb, pdf, medium,
                                                              mixture(pa_b, pb_b) + qb * pb_b);
                             for (int k = 0; k < nb; ++k) weight[k] = beta_pre[k] * band_phase(k) * walk.absorbed(w, k);
                         }
@@ -535,7 +551,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                     c.segments++;
                     double tb, pdf;
                     if (beam_scatter_point(w, wb, hb.valid ? hb.t : kInf, rng, &tb, &pdf)) {
-                        double* weight = queue_beam_term(terms, &out.beam_volume, xo, wb, tb, pdf, medium,
+                        double* weight = queue_beam_term(terms, &out, xo, wb, tb, pdf, medium,
                                                          mixture(pa_b, pb_b) + q * pb_b);
                         for (int k = 0; k < nb; ++k) weight[k] = beta.v[k] * m.reflectance.v[k] * cb * kInvPi;
                     }
@@ -655,7 +671,7 @@ inline void camera_ray(const Camera& cam, double x, double y, Vec3* o, Vec3* d) 
 // Adds one sample's components to the running sums: component 0 is their total.
 inline void accumulate(const Spectrum* comp, int nb, double* s, double* s2) {
     for (int k = 0; k < nb; ++k) {
-        double tot = comp[1].v[k] + comp[2].v[k] + comp[3].v[k] + comp[4].v[k];
+        double tot = comp[1].v[k] + comp[2].v[k] + comp[3].v[k] + comp[4].v[k] + comp[5].v[k];
         s[k] += tot;
         s2[k] += tot * tot;
     }
@@ -704,7 +720,7 @@ void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
                 Vec3 o, d;
                 camera_ray(cam, px + 0.5 + fx, row + 0.5 + fy, &o, &d);
                 Components L = trace(o, d, cam.medium, false, false, rng, cnt, 1.0, true);
-                Spectrum comp[kNumComponents] = {Spectrum(), L.beam_surface, L.beam_volume, L.path, Spectrum()};
+                Spectrum comp[kNumComponents] = {Spectrum(), L.beam_surface, L.beam_volume, L.path, Spectrum(), L.raman};
                 accumulate(comp, nb, s, s2);
             }
         }
@@ -890,9 +906,12 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
             double pa_b = mixture(wb), pb_b = beam_direction_pdf(wat, bd, wb);
             Hit hb = intersect(r.position, wb, kInf, ocean_side(r.medium));
             c.segments++;
-            Spectrum I;
-            beam_scatter_along(r.position, wb, hb.valid ? hb.t : kInf, r.medium, rng, &I);
-            for (int k = 0; k < nbands; ++k) out[2].v[k] += resp * I.v[k] / (pa_b + pb_b);
+            Spectrum I, R;
+            beam_scatter_along(r.position, wb, hb.valid ? hb.t : kInf, r.medium, rng, &I, nullptr, &R);
+            for (int k = 0; k < nbands; ++k) {
+                out[2].v[k] += resp * I.v[k] / (pa_b + pb_b);
+                out[5].v[k] += resp * R.v[k] / (pa_b + pb_b);
+            }
         }
     }
     Components L = trace(r.position, w, r.medium, sensor_nee, sensor_beams, rng, c, first_weight, false,
@@ -901,6 +920,7 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
         out[1].v[k] = L.beam_surface.v[k] * weight;
         out[2].v[k] += L.beam_volume.v[k] * weight;
         out[3].v[k] = L.path.v[k] * weight;
+        out[5].v[k] += L.raman.v[k] * weight;
     }
     if (sensor_nee) {
         double s1 = rng.uniform(), s2 = rng.uniform();
@@ -997,7 +1017,7 @@ void Scene::render_radiometer(int ri, uint64_t start, uint64_t count, int thread
             if (moments) {
                 bins.push_back(bin);
                 for (int k = 0; k < nb; ++k)
-                    totals.push_back(comp[1].v[k] + comp[2].v[k] + comp[3].v[k] + comp[4].v[k]);
+                    totals.push_back(comp[1].v[k] + comp[2].v[k] + comp[3].v[k] + comp[4].v[k] + comp[5].v[k]);
             }
         }
         std::copy(local_sum.begin(), local_sum.end(), csum.begin() + chunk * nbins * stride);

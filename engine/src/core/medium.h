@@ -61,6 +61,14 @@ struct Water {
     double b_max = 0.0;                  // largest b (all scattering) over bands, layers, voxels
     double mis_bsum = 0.0;               // sum of all b (beam-direction MIS sampling)
     double mis_wsum = 0.0;               // sum of the components' weights (its pdf)
+    // Raman scattering by the water itself (set_water_raman): raman[j * nb + i] is the
+    // coefficient (m^-1) with which light of excitation band i, Raman-scattered, adds to
+    // emission band j per unit of band i's spectral irradiance (b_R(i) times the share of its
+    // emission in band j, photons to energy), and raman_rho the phase function's
+    // 3 / (4 pi (3 + rho)) (1 + rho cos^2); empty: none. Only the beams' light is
+    // Raman-scattered (single inelastic scattering of the refracted sun).
+    std::vector<double> raman;
+    double raman_rho = 0.55;
 
     // Its kind: homogeneous (one layer, no grid), layered (stratified) or gridded (grid set,
     // over one layer or several); varying(): not homogeneous.

@@ -219,6 +219,20 @@ PYBIND11_MODULE(_core, m) {
             return int(s.waters.size()) - 1;
         }, py::arg("ior"), py::arg("absorption"), py::arg("components"),
            "A water body; its IOPs hold everywhere, or above the first layer added below it.")
+        .def("set_water_raman", [](Scene& s, int water, DArray coupling, double rho) {
+            Water& w = s.waters.at(water);
+            const int nb = s.nbands;
+            if (coupling.ndim() != 2 || coupling.shape(0) != nb || coupling.shape(1) != nb)
+                throw std::invalid_argument("Raman coupling must be (nbands, nbands): [emission, excitation]");
+            if (!(rho >= 0.0 && rho <= 1.0)) throw std::invalid_argument("Raman phase rho must be in [0, 1]");
+            w.raman.assign(coupling.data(), coupling.data() + coupling.size());
+            for (double x : w.raman)
+                if (!(x >= 0.0 && std::isfinite(x))) throw std::invalid_argument("Raman coupling must be finite and >= 0");
+            w.raman_rho = rho;
+        }, py::arg("water"), py::arg("coupling"), py::arg("rho"),
+           "Raman scattering by the water body's water: coupling[j, i] (m^-1) from excitation band i "
+           "into emission band j per unit of band i's spectral irradiance; phase function "
+           "3 / (4 pi (3 + rho)) (1 + rho cos^2). The beams' light only (single inelastic scattering).")
         .def("add_water_layer", [](Scene& s, int water, double z_top, DArray a, std::vector<DArray> b) {
             if (water < 0 || water >= int(s.waters.size())) throw std::invalid_argument("bad water index");
             Water& w = s.waters[water];

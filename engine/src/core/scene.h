@@ -19,7 +19,7 @@
 
 namespace photic {
 
-constexpr int kNumComponents = 5;  // total, beam_surface, beam_volume, path, beam_direct
+constexpr int kNumComponents = 6;  // total, beam_surface, beam_volume, path, beam_direct, raman
 constexpr int kRoughFlatBeams = 16;  // facets per build below a rough flat ocean
 constexpr int kMaxBeams = 64;      // beams summed at one point (overlaps in strong caustics)
 // Exact mode (forward cone 0): the fraction of path continuations drawn around a beam's
@@ -184,6 +184,7 @@ struct Components {
     Spectrum beam_surface;  // the sun from beams on surfaces (refracted under water, reflected in the air)
     Spectrum beam_volume;   // single scattering of beams along traced water segments
     Spectrum path;          // everything path tracing finds itself (sky, sun above water, ...)
+    Spectrum raman;         // the beams' light Raman-scattered by water into these bands
 };
 
 struct alignas(64) Counters {  // one cache line each: no false sharing between threads
@@ -400,8 +401,9 @@ public:
     // without the throughput), one distance sample.
     // deferred_t: in gridded water, the attenuation from o to the point drawn is left out and
     // that point's distance stored here, for a caller who walks the segment anyway.
+    // raman: the same point's Raman scattering of the beams into each band (Water::raman).
     void beam_scatter_along(const Vec3& o, const Vec3& d, double T, int medium, Rng& rng, Spectrum* out,
-                            double* deferred_t = nullptr) const;
+                            double* deferred_t = nullptr, Spectrum* raman = nullptr) const;
     bool strongest_beam(const Vec3& x, int medium, BeamSample* beam) const;
     // How often a camera path at a point lit by `beam` tries the beam's reverse direction: the
     // probability of the beam-scattering MIS's second sample (and, times kBeamGuide, of a
@@ -468,7 +470,7 @@ private:
     // term is 0), and the sum over the beams found at x = o + d t.
     bool beam_scatter_point(const Water& w, const Vec3& d, double T, Rng& rng, double* t, double* pdf) const;
     void beam_scatter_sum(const Vec3& o, const Vec3& d, double t, double pdf, int medium, const BeamSample* beams,
-                          int n, Spectrum* out, double* deferred_t) const;
+                          int n, Spectrum* out, double* deferred_t, Spectrum* raman = nullptr) const;
     // A path's beam-scattering terms in water (along its water segments and its MIS rays) whose
     // points are drawn in turn but whose beams are looked up together when the path ends: all
     // their grid cells are fetched, then all their candidates' keys, then the prisms whose keys
@@ -488,9 +490,9 @@ private:
         Term terms[kMax];
     };
     // Queues a term (settling a full list first); returns its weight, for the caller to fill.
-    double* queue_beam_term(BeamTerms& b, Spectrum* volume, const Vec3& o, const Vec3& d, double t, double pdf,
+    double* queue_beam_term(BeamTerms& b, Components* out, const Vec3& o, const Vec3& d, double t, double pdf,
                             int medium, double den) const;
-    void settle_beam_terms(BeamTerms& b, Spectrum* volume) const;
+    void settle_beam_terms(BeamTerms& b, Components* out) const;
     // trace's body (trace settles the path's beam terms when it returns).
     Components trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
                           Counters& c, double first_beam_weight, bool camera, bool reflect_covered,

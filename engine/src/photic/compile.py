@@ -117,6 +117,16 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
             core.set_material_texture(mi, np.ascontiguousarray(img), mat.texture.wrap == "clamp",
                                       mat.texture.interpolation == "closest")
 
+    # Raman scattering (settings.raman): light leaves each band at b_R (added to its
+    # absorption) and the beams' light comes back in the bands it shifts to (the coupling);
+    # only between the bands of this group (render warns when groups part coupled bands).
+    raman = None
+    if getattr(scene.settings, "raman", False):
+        from .inelastic import RAMAN_RHO, raman_b, raman_coupling
+        centers = np.array([b.center_nm for b in scene.bands], float)
+        raman = (sel(raman_b(centers)), np.ascontiguousarray(raman_coupling(scene.bands)[bands, bands]))
+    loss = (lambda a: sel(a) + raman[0]) if raman is not None else sel
+
     water_index = {}
     for w in scene.water:
         # Stratified water: the first layer makes the water body, the others go below it
@@ -131,10 +141,12 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
             comps.append((pid, sel(comp.b)))
         if not comps:  # no scattering component: a purely absorbing body
             comps.append((core.add_phase(make_core_phase("isotropic")), np.zeros(nb)))
-        wi = core.add_water(float(w.ior), sel(layers[0].absorption), comps)
+        wi = core.add_water(float(w.ior), loss(layers[0].absorption), comps)
         for z_top, layer in zip(np.asarray(base.z_top)[1:] if len(layers) > 1 else [], layers[1:]):
             b = [sel(c.b) for c in layer.scattering] or [np.zeros(nb)]
-            core.add_water_layer(wi, float(z_top), sel(layer.absorption), b)
+            core.add_water_layer(wi, float(z_top), loss(layer.absorption), b)
+        if raman is not None and grid is None:  # (gridded water: not yet, scene_warnings says)
+            core.set_water_raman(wi, raman[1], RAMAN_RHO)
         if grid is not None:  # 3-D IOPs: base + each field's density x its unit over the box
             origin = np.asarray(grid.origin, dtype=np.float64)
             units = grid.units()

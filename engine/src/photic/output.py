@@ -24,6 +24,7 @@ COMPONENT_DESCRIPTIONS = {
     "beam_volume": "single scattering of beams along traced water segments",
     "path": "everything path tracing finds itself: sky, sun above water, multiple scattering of sky light",
     "beam_direct": "refracted sun reaching the radiometer directly, from the beams in closed form",
+    "raman": "the beams' light Raman-scattered by water into this band (settings.raman; else 0)",
 }
 IMAGE_COMPONENTS = COMPONENTS[:3]
 
@@ -257,7 +258,7 @@ def write_radiometer_csv(out_dir, result: RenderResult, stem: str | None = None)
                 f"forward cone {result.stats.get('forward_cone_deg')} deg; "
                 "value = Monte Carlo mean, stderr = its standard error (stderr_trusted False: not to be "
                 "trusted, stderr_note says why: too few passes, heavy tails of the samples); "
-                "value = value_beam_surface + value_beam_volume + value_path + value_beam_direct (" +
+                "value = " + " + ".join(f"value_{c}" for c in COMPONENTS) + " (" +
                 "; ".join(f"{c}: {COMPONENT_DESCRIPTIONS[c]}" for c in COMPONENTS) + ")\n")
         w = csv.writer(f)
         w.writerow(CSV_FIELDS)

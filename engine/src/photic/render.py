@@ -35,7 +35,7 @@ UNITS_IRRADIANCE = "W m^-2 (per unit of the band's source spectrum, e.g. nm^-1)"
 IRRADIANCE_QUANTITIES = {"Ed", "Eu", "Eo", "Eod", "Eou"}
 
 
-COMPONENTS = ("beam_surface", "beam_volume", "path", "beam_direct")
+COMPONENTS = ("beam_surface", "beam_volume", "path", "beam_direct", "raman")
 
 
 @dataclass

@@ -479,7 +479,7 @@ def _build_scene(d: dict, base_dir: Path) -> Scene:
         sun = Sun(float(s["zenith_deg"]), float(s["azimuth_deg"]),
                   _per_band("sun", "irradiance", s["irradiance"], nb),
                   float(s.get("angular_diameter_deg", 0.53)))
-    settings = Settings(**{k: (v if k in ("integrator", "forward_cone_deg", "sun_disk_blur") else
+    settings = Settings(**{k: (v if k in ("integrator", "forward_cone_deg", "sun_disk_blur", "raman") else
                                None if (k in ("target_error", "noise_threshold") and v is None) else
                                float(v) if k in ("target_error", "noise_threshold") else int(v))
                            for k, v in d.get("settings", {}).items()})

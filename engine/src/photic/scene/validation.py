@@ -153,6 +153,34 @@ def scene_warnings(s: Scene) -> list[str]:
             if float(c.position[2]) < floor:
                 out.append(f"camera '{c.name}': position z = {float(c.position[2]):g} m is below the "
                            f"sea floor (z = {floor:g} m): it sees nothing")
+    if getattr(s.settings, "raman", False):
+        out += _raman_warnings(s)
+    return out
+
+
+def _raman_warnings(s: Scene) -> list[str]:
+    """What Raman scattering (settings.raman) cannot give this scene: light outside the
+    hybrid integrator's beams, gridded water, excitation outside the bands."""
+    from ..inelastic import RAMAN_FWHM_CM, RAMAN_SHIFT_CM, raman_coupling, raman_coverage
+    out = []
+    if s.settings.integrator == "path" or s.sun is None:
+        out.append("settings.raman: Raman scattering comes from the hybrid integrator's beams (the "
+                   "refracted sun); this scene renders without them (path integrator or no sun): no "
+                   "Raman light")
+    for w in s.water:
+        if isinstance(w.iops, IOPGrid):
+            out.append(f"water '{w.name}': Raman scattering is not computed in gridded water (iop_grid) "
+                       f"yet: none from it")
+    coupling = raman_coupling(s.bands)
+    coverage = raman_coverage(s.bands)
+    for j, b in enumerate(s.bands):
+        lo = 1e7 / (1e7 / (b.center_nm - 0.5 * b.width_nm) + RAMAN_SHIFT_CM + RAMAN_FWHM_CM)
+        hi = 1e7 / (1e7 / (b.center_nm + 0.5 * b.width_nm) + RAMAN_SHIFT_CM - RAMAN_FWHM_CM)
+        if coverage[j] < 0.9:
+            got = "none" if not coupling[j].any() else f"{100 * coverage[j]:.0f} %"
+            out.append(f"band '{b.name}': its Raman light is excited at about {lo:.0f}-{hi:.0f} nm, of "
+                       f"which the scene's bands hold {got}: it gets that share of its Raman light "
+                       f"(add bands there to see all of it)")
     return out
 
 
@@ -824,8 +852,9 @@ def _validate_settings(s: Settings) -> None:
         check_parameter("settings", f"settings.{key}", getattr(s, key))
     if s.forward_cone_deg != "auto":
         check_parameter("settings", "settings.forward_cone_deg", s.forward_cone_deg)
-    if not isinstance(s.sun_disk_blur, (bool, np.bool_)):
-        raise SceneError("settings", "sun_disk_blur", f"must be true or false, got {_show(s.sun_disk_blur)}")
+    for key in ("sun_disk_blur", "raman"):
+        if not isinstance(getattr(s, key), (bool, np.bool_)):
+            raise SceneError("settings", key, f"must be true or false, got {_show(getattr(s, key))}")
     for key in ("target_error", "noise_threshold"):
         if getattr(s, key) is not None:
             check_parameter("settings", f"settings.{key}", getattr(s, key))

@@ -1,0 +1,150 @@
+"""Raman scattering by water (issue 42, first process): the spectral model against its own
+closed forms, and the hybrid integrator's Raman light against the closed form of single
+inelastic scattering of a collimated beam in water that does not scatter elastically."""
+import numpy as np
+import pytest
+
+from photic import inelastic
+from photic.render import render
+from photic.scene import Band, Scene, SceneError, scene_warnings
+
+pytestmark = pytest.mark.gate  # the physics gate (tests/test_gate.py)
+
+IOR = 1.34
+
+
+def test_raman_phase_function_is_normalised():
+    mu = np.linspace(-1.0, 1.0, 200_001)
+    integral = 2 * np.pi * np.trapz(inelastic.raman_phase(mu), mu)
+    assert abs(integral - 1.0) < 1e-9
+    assert inelastic.raman_phase(1.0) / inelastic.raman_phase(0.0) == pytest.approx(1.55)
+
+
+def test_raman_coefficient_and_shift():
+    assert inelastic.raman_b(488.0) == pytest.approx(2.7e-4)
+    assert inelastic.raman_b(400.0) / inelastic.raman_b(500.0) == pytest.approx(1.25 ** 5.5)
+    # 3,400 cm^-1 below 488 nm's 20,492 cm^-1: 585.1 nm
+    assert inelastic.excitation_nm(1e7 / (1e7 / 488.0 - 3400.0)) == pytest.approx(488.0, abs=1e-9)
+    assert inelastic.excitation_nm(585.08) == pytest.approx(488.0, abs=0.01)
+    lam = np.linspace(450.0, 750.0, 30_001)
+    for ex in (420.0, 488.0, 550.0):  # the emission density integrates to 1 over wavelength
+        assert np.trapz(inelastic.emission_density(ex, lam), lam) == pytest.approx(1.0, abs=1e-6)
+
+
+def test_the_coupling_keeps_the_energy_raman_scattering_takes():
+    """Contiguous 10 nm bands from 400 to 800 nm: what band i loses at b_R (integrated over
+    the band) all lands in the bands above it (the emission of 400-560 nm stays below 800)."""
+    bands = [Band(f"{c}", float(c), 10.0) for c in range(405, 800, 10)]
+    m = inelastic.raman_coupling(bands)
+    widths = np.full(len(bands), 10.0)
+    for i, b in enumerate(bands):
+        if b.center_nm > 560:
+            continue
+        lam = np.linspace(b.center_nm - 5, b.center_nm + 5, 2001)
+        lost = np.trapz(inelastic.raman_b(lam), lam)
+        assert (m[:, i] * widths).sum() == pytest.approx(lost, rel=2e-3), b.name
+        assert m[: i + 1, i].max() < 1e-3 * m[:, i].max()  # nothing goes to shorter wavelengths
+    assert np.all(inelastic.raman_coverage(bands)[np.array([b.center_nm for b in bands]) > 500] > 0.999)
+
+
+def _sea(bands, absorption, sun, quantity, direction=None, half_angle=None, depth=1.0, raman=True,
+         integrator="hybrid", zenith=0.0):
+    rad = {"name": "r", "quantity": quantity, "position": [0.0, 0.0, -depth]}
+    if direction is not None:
+        rad["direction"] = direction
+    if half_angle is not None:
+        rad["half_angle_deg"] = half_angle
+    return Scene.from_dict({
+        "photic_scene": 1, "name": "raman",
+        "bands": [{"name": b.name, "center_nm": b.center_nm, "width_nm": b.width_nm} for b in bands],
+        "water": [{"name": "sea", "type": "ocean", "ior": IOR, "surface": {"kind": "flat", "z": 0.0},
+                   "iops": {"absorption": absorption, "b": [0.0] * len(bands), "phase": {"type": "isotropic"}}}],
+        "sun": {"zenith_deg": zenith, "azimuth_deg": 0.0, "irradiance": sun},
+        "radiometers": [rad],
+        "settings": {"integrator": integrator, "raman": raman, "seed": 3, "forward_cone_deg": 0}})
+
+
+BANDS = [Band("450", 450.0, 20.0), Band("531", 531.0, 20.0)]  # 450 nm shifts to 531 nm
+A = [0.02, 0.05]
+T = 1.0 - ((IOR - 1.0) / (IOR + 1.0)) ** 2  # Fresnel transmittance, normal incidence
+
+
+def _closed_form_upwelling(mu):
+    """Radiance (band 531) going up at cos(theta) = mu at 1 m, from the vertical beam (band
+    450, irradiance T at the surface) Raman-scattered below: p_R(mu) sum_i M[j, i] E_i(z) /
+    (c_i mu + c_j), with c = a + b_R (what Raman scattering takes from each band)."""
+    m = inelastic.raman_coupling(BANDS)
+    c = np.asarray(A) + inelastic.raman_b([b.center_nm for b in BANDS])
+    e450 = T * np.exp(-c[0] * 1.0)
+    return inelastic.raman_phase(mu) * m[1, 0] * e450 / (c[0] * mu + c[1])
+
+
+def test_raman_radiance_of_a_collimated_beam_matches_its_closed_form():
+    """Upwelling radiance at 1 m (a 5 deg cap looking straight down) in water without elastic
+    scattering, the sun at the zenith in band 450 only: all of band 531's light is the beam's
+    Raman scattering, in closed form."""
+    scene = _sea(BANDS, A, [1.0, 0.0], "radiance", [0.0, 0.0, -1.0], 5.0)
+    r = render(scene, radiometer_samples=200_000, seed=5, threads=2).radiometers[0]
+    cap = np.radians(5.0)
+    mu = np.linspace(np.cos(cap), 1.0, 20_001)
+    expect = np.trapz(_closed_form_upwelling(mu), mu) / (1.0 - np.cos(cap))
+    value, se = float(r.mean[0, 1]), float(r.stderr[0, 1])
+    assert value == pytest.approx(float(r.components["raman"][0][0, 1]))  # all of it Raman
+    assert se < 0.01 * value
+    assert abs(value - expect) < 3.5 * se + 1e-3 * expect, (value, se, expect)
+    assert r.mean[0, 0] == 0.0  # nothing reaches band 450 going up (no elastic scattering)
+    assert inelastic.raman_coupling(BANDS)[0].max() == 0.0  # (nor from 531 nm: longer)
+
+
+def test_raman_upwelling_irradiance_matches_its_closed_form():
+    scene = _sea(BANDS, A, [1.0, 0.0], "Eu")
+    r = render(scene, radiometer_samples=200_000, seed=6, threads=2).radiometers[0]
+    mu = np.linspace(0.0, 1.0, 20_001)
+    expect = 2 * np.pi * np.trapz(_closed_form_upwelling(mu) * mu, mu)
+    value, se = float(r.mean[0, 1]), float(r.stderr[0, 1])
+    assert abs(value - expect) < 3.5 * se + 1e-3 * expect, (value, se, expect)
+
+
+def test_raman_radiance_under_an_oblique_sun_matches_its_closed_form():
+    """The sun at 40 deg: the refracted beam (at theta_w) carries E0 T(40) cos(40) / cos(theta_w)
+    normal to itself and is attenuated over z / cos(theta_w); the nadir radiance at 1 m is
+    p_R(cos theta_w) M E(1 m) / (c_i / cos(theta_w) + c_j), with the cap's average."""
+    zenith = np.radians(40.0)
+    mu_w = np.sqrt(1.0 - (np.sin(zenith) / IOR) ** 2)
+    mu_s = np.cos(zenith)
+    rs = ((mu_s - IOR * mu_w) / (mu_s + IOR * mu_w)) ** 2
+    rp = ((IOR * mu_s - mu_w) / (IOR * mu_s + mu_w)) ** 2
+    t = 1.0 - 0.5 * (rs + rp)
+    m = inelastic.raman_coupling(BANDS)
+    c = np.asarray(A) + inelastic.raman_b([b.center_nm for b in BANDS])
+    e = t * mu_s / mu_w * np.exp(-c[0] * 1.0 / mu_w)
+    expect = inelastic.raman_phase(mu_w) * m[1, 0] * e / (c[0] / mu_w + c[1])
+    scene = _sea(BANDS, A, [1.0, 0.0], "radiance", [0.0, 0.0, -1.0], 0.5, zenith=40.0)
+    r = render(scene, radiometer_samples=100_000, seed=7, threads=2).radiometers[0]
+    value, se = float(r.mean[0, 1]), float(r.stderr[0, 1])
+    # (the 0.5 deg cap: the radiance varies by < 1e-4 across it)
+    assert abs(value - expect) < 3.5 * se + 2e-4 * expect, (value, se, expect)
+
+
+def test_without_raman_or_with_path_tracing_nothing_shifts():
+    off = render(_sea(BANDS, A, [1.0, 0.0], "Eu", raman=False), radiometer_samples=20_000, seed=1).radiometers[0]
+    assert off.mean[0, 1] == 0.0 and not off.components["raman"][0].any()
+    path = _sea(BANDS, A, [1.0, 0.0], "Eu", integrator="path")
+    assert any("hybrid integrator's beams" in w for w in scene_warnings(path))
+
+
+def test_bands_without_their_excitation_are_named():
+    """450 nm's Raman light comes from 377-404 nm, outside the bands (a warning names it);
+    531 nm's from 436-463 nm, 94 % inside the 450 nm band (no warning)."""
+    warnings = scene_warnings(_sea(BANDS, A, [1.0, 0.0], "Eu"))
+    assert len(warnings) == 1 and "band '450'" in warnings[0] and "377-404 nm" in warnings[0], warnings
+    assert "none" in warnings[0]
+    narrow = _sea([Band("450", 450.0, 10.0), Band("531", 531.0, 20.0)], A, [1.0, 0.0], "Eu")
+    assert any("band '531'" in w and "%" in w for w in scene_warnings(narrow)), scene_warnings(narrow)
+
+
+def test_raman_must_be_true_or_false():
+    scene = _sea(BANDS, A, [1.0, 0.0], "Eu")
+    scene.settings.raman = "yes"
+    with pytest.raises(SceneError, match="raman"):
+        scene.validate()
