@@ -1,5 +1,5 @@
 """The scene's Photic render settings (integrator, samples, seed, depth, threads, forward
-cone, adaptive sampling) as the engine's ``Settings``."""
+cone, adaptive sampling, Raman scattering) as the engine's ``Settings``."""
 from __future__ import annotations
 
 import math
@@ -20,4 +20,4 @@ def settings(ex):
                                     if p.use_target_error else None),
                       noise_threshold=(blender_float(p.noise_threshold) / 100.0
                                        if p.use_noise_threshold else None),
-                      adaptive_min_samples=int(p.adaptive_min_samples))
+                      adaptive_min_samples=int(p.adaptive_min_samples), raman=bool(p.raman))

@@ -588,6 +588,12 @@ class PhoticSceneProperties(bpy.types.PropertyGroup):
                                 description="Levels of adaptive subdivision of a surface "
                                             "triangle's beam where its rays disagree (each "
                                             "level halves the beam cell size)")
+    raman: BoolProperty(
+        name="Raman Scattering", default=False,
+        description="Raman scattering by water: the refracted sun's beams shifted by 3,400 cm^-1 "
+                    "into the scene's longer-wavelength bands (hybrid integrator; the component "
+                    "'raman' of the radiometer tables). Needs bands where the excitation lies, "
+                    "about 60-100 nm bluer than each band")
     auto_exposure: BoolProperty(
         name="Auto Exposure", default=True,
         description="After a render (and in the viewport), set the scene's display exposure "

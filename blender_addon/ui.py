@@ -120,6 +120,7 @@ class PHOTIC_PT_beams(PhoticPanel, bpy.types.Panel):
         row.active = p.forward_cone == "ANGLE"
         row.prop(p, "forward_cone_angle")
         layout.prop(p, "beam_max_level")
+        layout.prop(p, "raman")
         layout.prop(p, "write_tables")
 
 

@@ -619,3 +619,15 @@ def test_other_world_nodes_are_named(empty):
     scene, info = export_current()
     assert scene.sky.type == "uniform"
     assert any("Gradient Texture" in w and "World 'World'" in w for w in info.warnings), info.warnings
+
+
+def test_the_raman_checkbox_turns_raman_scattering_on(empty):
+    add_camera()
+    add_sun()
+    p = empty.photic
+    assert p.raman is False
+    scene, _ = export_current()
+    assert scene.settings.raman is False
+    p.raman = True
+    scene, _ = export_current()
+    assert scene.settings.raman is True

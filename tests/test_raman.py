@@ -148,3 +148,4 @@ def test_raman_must_be_true_or_false():
     scene.settings.raman = "yes"
     with pytest.raises(SceneError, match="raman"):
         scene.validate()
+
