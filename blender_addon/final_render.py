@@ -30,6 +30,7 @@ COMPONENT_PASSES = (("Photic Beam Surface", "beam_surface"),
                     ("Photic Path", "path"))
 VARIANCE_PASS = "Photic Variance"
 PASS_NAMES = tuple(p for p, _ in COMPONENT_PASSES) + (VARIANCE_PASS,)
+RAMAN_PASS = "Photic Raman"  # (with Raman Scattering on: the sun's light Raman-scattered by water)
 ALBEDO_PASS, NORMAL_PASS, NOISY_PASS = "Denoising Albedo", "Denoising Normal", "Noisy Image"
 UPDATE_INTERVAL_S = 0.5
 FRAME_INTERVAL_S = 0.9  # the render view's image at most this often (each costs a full-image write)
@@ -305,6 +306,8 @@ def render_passes(scene) -> list[tuple[str, str, str]]:
     Cycles names them, so the compositor's Denoise node takes them as it takes Cycles')."""
     out = [("Combined", "RGBA", "COLOR")] + [(n, "RGB", "COLOR") for n in PASS_NAMES]
     p = getattr(scene, "photic", None) if scene is not None else None
+    if p is not None and p.raman:
+        out.append((RAMAN_PASS, "RGB", "COLOR"))
     if p is not None and (p.denoise or p.denoising_data):
         out += [(ALBEDO_PASS, "RGB", "COLOR"), (NORMAL_PASS, "XYZ", "VECTOR")]
     if p is not None and p.denoise:
@@ -316,7 +319,7 @@ def image_passes(image, bands) -> dict:
     """The Combined, component and variance passes of an engine ``ImageResult``, and with its
     denoising guides the Denoising Albedo and Normal passes."""
     out = {"Combined": bandmod.bands_to_rgba(image.mean, bands)}
-    for name, comp in COMPONENT_PASSES:
+    for name, comp in (*COMPONENT_PASSES, (RAMAN_PASS, "raman")):
         if comp in image.components:
             out[name] = bandmod.bands_to_rgba(image.components[comp], bands)[:, :, :3]
     out[VARIANCE_PASS] = bandmod.bands_to_rgba(image.variance, bands, variance=True)[:, :, :3]

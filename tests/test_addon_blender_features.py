@@ -628,6 +628,14 @@ def test_the_raman_checkbox_turns_raman_scattering_on(empty):
     assert p.raman is False
     scene, _ = export_current()
     assert scene.settings.raman is False
+    assert final_render.RAMAN_PASS not in [n for n, _, _ in final_render.render_passes(empty)]
     p.raman = True
     scene, _ = export_current()
     assert scene.settings.raman is True
+    # F12 then registers and fills a Raman pass (the engine's raman component of the pixels).
+    assert final_render.RAMAN_PASS in [n for n, _, _ in final_render.render_passes(empty)]
+    from photic.render import render as engine_render
+    scene.cameras[0].resolution = (4, 3)
+    img = next(iter(engine_render(scene, samples=2, threads=1).images.values()))
+    bands = [(b.name, b.center_nm, b.width_nm) for b in scene.bands]
+    assert final_render.RAMAN_PASS in final_render.image_passes(img, bands)

@@ -157,3 +157,32 @@ def test_raman_light_lost_between_band_groups_is_said():
     scene = _sea(bands, [0.05] * len(bands), [1.0] * len(bands), "Eu")
     warnings = [w for w in scene_warnings(scene) if "groups" in w]
     assert len(warnings) == 1 and "'565'" in warnings[0] and "'405'" not in warnings[0], warnings
+
+
+def test_a_camera_gets_its_raman_pass_and_the_passes_sum_to_the_total(tmp_path):
+    """A camera 1 m down looking at the deep water below: in band 531 it sees only Raman
+    light; the pixels' components (beam_surface, beam_volume, path, raman) sum to the total,
+    in one process and merged from a batch's units alike."""
+    from photic.distributed import parse_job, run_job
+
+    d = _sea(BANDS, A, [1.0, 0.0], "Eu").to_dict()
+    d["cameras"] = [{"name": "down", "type": "perspective", "position": [0.0, 0.0, -1.0],
+                     "direction": [0.0, 0.0, -1.0], "up": [0.0, 1.0, 0.0], "fov_deg": 20.0,
+                     "resolution": [6, 4]}]
+    scene = Scene.from_dict(d)
+    img = render(scene, samples=64, radiometer_samples=1024, seed=2).images["down"]
+    assert set(img.components) == {"beam_surface", "beam_volume", "path", "raman"}
+    np.testing.assert_allclose(sum(img.components.values()), img.mean, rtol=1e-12, atol=1e-15)
+    assert img.components["raman"][:, :, 1].min() > 0 and not img.components["raman"][:, :, 0].any()
+    # The nadir pixels' radiance is the closed form's (the cap of 20 deg: within 3 %)
+    expect = float(_closed_form_upwelling(1.0))
+    assert abs(img.mean[:, :, 1].mean() / expect - 1.0) < 0.03, (img.mean[:, :, 1].mean(), expect)
+    (tmp_path / "s.json").write_text(__import__("json").dumps(d))
+    job = parse_job({"photic_job": 1, "name": "r", "inputs": [str(tmp_path / "s.json")], "samples": 8,
+                     "radiometer_samples": 1024, "seed": 2}, tmp_path)
+    merged = {}
+    run_job(job, tmp_path / "out", workers=0, progress=False,
+            on_item_done=lambda item, res: merged.update(res.images), write_results=False)
+    m = merged["down"]
+    assert "raman" in m.components and m.components["raman"][:, :, 1].min() > 0
+    np.testing.assert_allclose(sum(m.components.values()), m.mean, rtol=1e-12, atol=1e-15)

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .render import COMPONENTS, RenderResult
+from .render import COMPONENTS, IMAGE_COMPONENTS, RenderResult
 from .safe_io import atomic_file, csv_text, json_safe  # noqa: F401  (photic.output.* too)
 
 # What each component pass holds; the components sum to the total (radiance or value).
@@ -26,7 +26,6 @@ COMPONENT_DESCRIPTIONS = {
     "beam_direct": "refracted sun reaching the radiometer directly, from the beams in closed form",
     "raman": "the beams' light Raman-scattered by water into this band (settings.raman; else 0)",
 }
-IMAGE_COMPONENTS = COMPONENTS[:3]
 
 
 @dataclass

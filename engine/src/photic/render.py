@@ -36,6 +36,13 @@ IRRADIANCE_QUANTITIES = {"Ed", "Eu", "Eo", "Eod", "Eou"}
 
 
 COMPONENTS = ("beam_surface", "beam_volume", "path", "beam_direct", "raman")
+# A camera's component passes (beam_direct is a radiometer's own; raman with settings.raman).
+IMAGE_COMPONENTS = ("beam_surface", "beam_volume", "path", "raman")
+
+
+def image_components(scene) -> tuple[str, ...]:
+    """The component passes of a scene's pixels."""
+    return IMAGE_COMPONENTS if getattr(scene.settings, "raman", False) else IMAGE_COMPONENTS[:3]
 
 
 @dataclass
@@ -418,12 +425,14 @@ class DisplaySums:
 IMAGE_BLOCK_ROWS = 32  # image_result works on bands of rows: its temporaries stay in cache
 
 
-def image_result(name: str, sums: CameraSums, n: int, in_place: bool = False) -> ImageResult:
+def image_result(name: str, sums: CameraSums, n: int, in_place: bool = False,
+                 components: tuple[str, ...] = IMAGE_COMPONENTS[:3]) -> ImageResult:
     """A camera's result from its sums over ``n`` samples per pixel (adaptive sampling, or a
     pass under way: each pixel's own, from the sums). Done by bands of rows, so that a large
     image (1920 x 1080 x 10 bands) makes no large temporaries; ``in_place``: the result takes
     the sums' memory (they are spent), which spares allocating (and the system zeroing) as much
-    again: most of the time this step takes at that size."""
+    again: most of the time this step takes at that size. ``components``: the passes kept
+    (``image_components``)."""
     per_pixel = sums.adaptive or sums.partial
     height = sums.s.shape[0]
     mean = sums.s if in_place else np.empty(sums.s.shape)
@@ -439,7 +448,7 @@ def image_result(name: str, sums: CameraSums, n: int, in_place: bool = False) ->
             v = image_variance(sums.s[r, :, 0, :], sums.s2[r, :, 0, :], n, b, sums.sizes)
             np.divide(sums.s[r], max(float(n), 1.0), out=mean[r])
         var[r] = v
-    comps = {c: mean[:, :, i + 1, :] for i, c in enumerate(COMPONENTS[:3])}
+    comps = {c: mean[:, :, COMPONENTS.index(c) + 1, :] for c in components}
     if not per_pixel:
         return ImageResult(name, mean[:, :, 0, :], var, n, comps)
     return ImageResult(name, mean[:, :, 0, :], var, int(sums.n.max()), comps,
@@ -648,7 +657,7 @@ class Renderer:
                 return None
             n = self._cam_done[camera]
             sums = self._cam_sums[camera].copy(stride)
-        return image_result(camera, sums, n)
+        return image_result(camera, sums, n, components=image_components(self.scene))
 
     def _live(self, camera: str) -> CameraSums | None:
         """A camera's sums while they are a display's to read (under the lock): after its
@@ -818,7 +827,8 @@ class Renderer:
                         active = None
                         if self.noise_threshold is not None and start >= self.adaptive_min_samples:
                             with self._lock:
-                                img = image_result(cam.name, sums, cam_done[cam.name])
+                                img = image_result(cam.name, sums, cam_done[cam.name],
+                                                   components=image_components(scene))
                             done_px = pixels_converged(img, self.noise_threshold)
                             if stopped.get(cam.name) is not None:
                                 done_px |= stopped[cam.name]  # a pixel that stopped stays stopped
@@ -961,7 +971,7 @@ class Renderer:
             with self._lock:  # the sums are spent: a display asking now gets nothing
                 self._spent.add(cam.name)
             img = result.images[cam.name] = image_result(cam.name, cam_sums[cam.name], cam_done[cam.name],
-                                                         in_place=True)
+                                                         in_place=True, components=image_components(scene))
             if cam.name in guide_maps:
                 img.albedo, img.normal = guide_maps[cam.name]
             if self.noise_threshold is not None and cam_done[cam.name]:

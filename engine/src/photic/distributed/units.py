@@ -32,12 +32,13 @@ import numpy as np
 from ..compile import compile_scene, scene_band_groups
 from ..estimates import CameraSums, RadiometerSums
 from ..render import (COMPONENTS, ImageResult, RenderResult, _mean_stderr, build_pass_beams,
-                      camera_passes, flag_exact_mode_below_waves, image_result, radiometer_passes,
+                      camera_passes, flag_exact_mode_below_waves, image_components, image_result,
+                      radiometer_passes,
                       radiometer_result, round_seed, uses_beams)
 from .job import Item, Job
 
 NC = len(COMPONENTS) + 1      # the core's layout: total, then the components
-CAMERA_COMPONENTS = 4         # cameras have no beam_direct component (always zero)
+CAMERA_COMPONENTS = NC        # (beam_direct is always zero for cameras; raman with settings.raman)
 
 
 @dataclass(frozen=True, order=True)
@@ -288,7 +289,8 @@ class ItemMerger:
         item, scene = self.item, self.item.scene
         res = RenderResult(scene.name, list(scene.bands))
         for ci, cam in enumerate(scene.cameras):
-            res.images[cam.name] = image_result(cam.name, self.cams[ci], self.cam_samples[ci])
+            res.images[cam.name] = image_result(cam.name, self.cams[ci], self.cam_samples[ci],
+                                                components=image_components(self.item.scene))
         for ri, r in enumerate(scene.all_radiometers()):
             if ri not in self.rads:
                 continue
@@ -315,6 +317,7 @@ class CameraPreview:
     def __init__(self, item: Item, job: Job, camera: int = 0):
         cam = item.scene.cameras[camera]
         self.name, self.camera, self.job = cam.name, camera, job
+        self.components = image_components(item.scene)
         self.groups = scene_band_groups(item.scene)
         shape = (cam.resolution[1], cam.resolution[0], NC, len(item.scene.bands))
         self.s, self.s2 = np.zeros(shape), np.zeros(shape)
@@ -342,7 +345,7 @@ class CameraPreview:
                 return None
             s, s2, n = self.s.copy(), self.s2.copy(), self.n.copy()
         mean, err = _mean_stderr(s, s2, n)
-        comps = {c: mean[:, :, i + 1, :] for i, c in enumerate(COMPONENTS[:3])}
+        comps = {c: mean[:, :, COMPONENTS.index(c) + 1, :] for c in self.components}
         return ImageResult(self.name, mean[:, :, 0, :], err[:, :, 0, :] ** 2, int(n.min()), comps)
 
 
