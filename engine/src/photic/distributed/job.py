@@ -227,7 +227,9 @@ def _positive_int(doc: dict, key: str, default, lo: int = 1):
 
 def scene_fingerprint(scene: Scene, **extra) -> str:
     """sha256 of the scene's document and the render parameters that decide its numbers."""
-    body = json.dumps({"scene": scene.to_dict(), "photic": __version__, **extra}, sort_keys=True,
+    from ..render import COMPONENTS  # (the unit files' layout: units of another one are redone)
+    body = json.dumps({"scene": scene.to_dict(), "photic": __version__, "components": COMPONENTS, **extra},
+                      sort_keys=True,
                       default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o))
     return hashlib.sha256(body.encode()).hexdigest()
 
