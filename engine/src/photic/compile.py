@@ -67,6 +67,28 @@ def scene_band_groups(scene) -> list[slice]:
     return groups
 
 
+def raman_group_warnings(scene) -> list[str]:
+    """With settings.raman, the bands that lose Raman light to the band groups (a path
+    carries only its group's bands; scene_band_groups)."""
+    if not getattr(scene.settings, "raman", False):
+        return []
+    from .inelastic import raman_coupling
+    groups = scene_band_groups(scene)
+    if len(groups) < 2:
+        return []
+    coupling = raman_coupling(scene.bands)
+    group_of = np.empty(len(scene.bands), int)
+    for g, sl in enumerate(groups):
+        group_of[sl] = g
+    apart = coupling * (group_of[:, None] != group_of[None, :])
+    lost = [scene.bands[j].name for j in range(len(scene.bands)) if apart[j].sum() > 0.01 * coupling[j].sum()]
+    if not lost:
+        return []
+    return [f"settings.raman: the bands render in {len(groups)} groups (at most 16 bands, and bands whose "
+            f"scattering differs a hundredfold, render apart) and Raman light does not cross groups: bands "
+            f"{', '.join(repr(n) for n in lost)} lose what comes from another group"]
+
+
 def _oriented_up(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Triangles of a height-field patch wound so their normals point up (air side).
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .compile import compile_scene, scene_band_groups
+from .compile import compile_scene, raman_group_warnings, scene_band_groups
 from .parameters import check_parameter
 from .safe_io import machine_memory
 from .estimates import (CameraSums, RadiometerSums, bin_counts, combine_round_sums,
@@ -797,7 +797,7 @@ class Renderer:
                 core.cancel()
             if gi == 0:
                 check_sensors_off_boundaries(core, scene)
-                result.warnings = scene_warnings(scene) + sensor_warnings(core, scene)
+                result.warnings = scene_warnings(scene) + raman_group_warnings(scene) + sensor_warnings(core, scene)
             for ri in range(len(radiometers)):
                 m = core.radiometer_medium(ri)
                 media[ri] = "air" if m < 0 else scene.water[m].name

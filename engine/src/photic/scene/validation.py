@@ -173,19 +173,6 @@ def _raman_warnings(s: Scene) -> list[str]:
                        f"yet: none from it")
     coupling = raman_coupling(s.bands)
     coverage = raman_coverage(s.bands)
-    from ..compile import scene_band_groups
-    groups = scene_band_groups(s)
-    if len(groups) > 1:  # a path carries one group's bands: no Raman light between groups
-        group_of = np.empty(len(s.bands), int)
-        for g, sl in enumerate(groups):
-            group_of[sl] = g
-        apart = coupling * (group_of[:, None] != group_of[None, :])
-        lost = [s.bands[j].name for j in range(len(s.bands)) if apart[j].sum() > 0.01 * coupling[j].sum()]
-        if lost:
-            out.append(f"settings.raman: the bands render in {len(groups)} groups (at most 16 bands, and "
-                       f"bands whose scattering differs a hundredfold, render apart) and Raman light does "
-                       f"not cross groups: bands {', '.join(repr(n) for n in lost)} lose what comes from "
-                       f"another group")
     for j, b in enumerate(s.bands):
         lo = 1e7 / (1e7 / (b.center_nm - 0.5 * b.width_nm) + RAMAN_SHIFT_CM + RAMAN_FWHM_CM)
         hi = 1e7 / (1e7 / (b.center_nm + 0.5 * b.width_nm) + RAMAN_SHIFT_CM - RAMAN_FWHM_CM)
