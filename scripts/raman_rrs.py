@@ -73,10 +73,14 @@ def main(argv=None) -> None:
         series.append((chl, rrs_on, rrs_off, raman))
     if args.plot:
         colours = [(40, 90, 200), (40, 150, 60), (200, 40, 40)]
+        top = max(float(np.max(on)) for _, on, _, _ in series) * 1.1
+        step = 10 ** math.floor(math.log10(top / 4))
         rrs = {"title": "Rrs with Raman (dark) and without (light)", "xlabel": "wavelength (nm)",
-               "ylabel": "Rrs (1/sr)", "legend": True, "series": []}
+               "ylabel": "Rrs (1/sr)", "legend": True, "series": [], "ylim": (0.0, top),
+               "yticks": np.arange(0.0, top, 2 * step), "xticks": np.arange(400, 701, 50)}
         share = {"title": "Raman share of Rrs", "xlabel": "wavelength (nm)", "ylabel": "%",
-                 "legend": True, "series": []}
+                 "legend": True, "series": [], "ylim": (0.0, 20.0), "yticks": np.arange(0, 21, 5),
+                 "xticks": np.arange(400, 701, 50)}
         for (chl, on, off, raman), col in zip(series, colours):
             rrs["series"] += [(f"b_p {chl:g}/m, with Raman", CENTERS, on, col),
                               (f"b_p {chl:g}/m, without", CENTERS, off, tuple(min(255, x + 110) for x in col))]

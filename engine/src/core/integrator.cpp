@@ -100,7 +100,8 @@ void Scene::beam_scatter_sum(const Vec3& o, const Vec3& d, double t, double pdf,
             const double p = 3.0 / (4.0 * kPi * (3.0 + w.raman_rho)) * (1.0 + w.raman_rho * mu * mu);
             for (int kb = 0; kb < nbands; ++kb) {
                 double r = 0.0;
-                for (int ki = 0; ki < nbands; ++ki) r += w.raman[size_t(kb) * nbands + ki] * beams[j].e.v[ki];
+                for (int ki = w.raman_from[kb]; ki < w.raman_to[kb]; ++ki)
+                    r += w.raman[size_t(kb) * nbands + ki] * beams[j].e.v[ki];
                 raman->v[kb] += att[kb] * p * r / pdf;
             }
         }

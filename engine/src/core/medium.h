@@ -69,6 +69,9 @@ struct Water {
     // Raman-scattered (single inelastic scattering of the refracted sun).
     std::vector<double> raman;
     double raman_rho = 0.55;
+    // Per emission band j, the excitation bands [raman_from[j], raman_to[j]) of its nonzero
+    // couplings (a few neighbours: the loop over them is what Raman costs per beam).
+    std::vector<int> raman_from, raman_to;
 
     // Its kind: homogeneous (one layer, no grid), layered (stratified) or gridded (grid set,
     // over one layer or several); varying(): not homogeneous.

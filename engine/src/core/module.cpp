@@ -229,6 +229,14 @@ PYBIND11_MODULE(_core, m) {
             for (double x : w.raman)
                 if (!(x >= 0.0 && std::isfinite(x))) throw std::invalid_argument("Raman coupling must be finite and >= 0");
             w.raman_rho = rho;
+            w.raman_from.assign(nb, 0);
+            w.raman_to.assign(nb, 0);
+            for (int j = 0; j < nb; ++j)
+                for (int i = 0; i < nb; ++i)
+                    if (w.raman[size_t(j) * nb + i] > 0.0) {
+                        if (w.raman_to[j] == 0) w.raman_from[j] = i;
+                        w.raman_to[j] = i + 1;
+                    }
         }, py::arg("water"), py::arg("coupling"), py::arg("rho"),
            "Raman scattering by the water body's water: coupling[j, i] (m^-1) from excitation band i "
            "into emission band j per unit of band i's spectral irradiance; phase function "
