@@ -33,7 +33,7 @@ RAMAN_SHIFT_CM = 3400.0    # cm^-1, the centre of the wavenumber shift
 RAMAN_FWHM_CM = 400.0      # cm^-1, the shift's full width at half maximum (one Gaussian)
 RAMAN_RHO = 0.55           # phase function 1 + rho cos^2 (depolarisation ratio 0.17)
 _SIGMA_CM = RAMAN_FWHM_CM / (2.0 * math.sqrt(2.0 * math.log(2.0)))
-_REACH_CM = 4.0 * RAMAN_FWHM_CM  # the shift's Gaussian is cut there (6.8 sigma)
+_REACH_CM = 4.0 * RAMAN_FWHM_CM  # the shift's Gaussian is cut there (9.4 sigma)
 _NODES = 64                # quadrature nodes per band and per excitation range
 
 
@@ -55,7 +55,7 @@ def emission_density(excitation_nm, emission_nm) -> np.ndarray:
     lam = np.asarray(emission_nm, float)
     shift = k_ex - 1e7 / lam
     g = np.exp(-0.5 * ((shift - RAMAN_SHIFT_CM) / _SIGMA_CM) ** 2) / (_SIGMA_CM * math.sqrt(2 * math.pi))
-    g = np.where(np.abs(shift - RAMAN_SHIFT_CM) <= _REACH_CM, g, 0.0)  # (beyond: < 1e-10 of the peak)
+    g = np.where(np.abs(shift - RAMAN_SHIFT_CM) <= _REACH_CM, g, 0.0)  # (beyond: < 1e-19 of the peak)
     return g * 1e7 / lam ** 2  # per cm^-1 of wavenumber -> per nm of wavelength
 
 
