@@ -188,3 +188,31 @@ def test_a_camera_gets_its_raman_pass_and_the_passes_sum_to_the_total(tmp_path):
     m = merged["down"]
     assert "raman" in m.components and m.components["raman"][:, :, 1].min() > 0
     np.testing.assert_allclose(sum(m.components.values()), m.mean, rtol=1e-12, atol=1e-15)
+
+
+def test_raman_radiance_in_layered_water_matches_its_closed_form():
+    """Two layers (the boundary at 2 m, clearer water below): the beam and the Raman light
+    are attenuated by each layer's own a + b_R, the sun at the zenith; the nadir radiance at
+    1 m, integrated over depth in closed form piece by piece (here by quadrature)."""
+    a_top, a_low = np.array([0.05, 0.08]), np.array([0.01, 0.03])
+    b_r = inelastic.raman_b([b.center_nm for b in BANDS])
+    c_top, c_low = a_top + b_r, a_low + b_r
+    d = _sea(BANDS, list(a_top), [1.0, 0.0], "radiance", [0.0, 0.0, -1.0], 0.5).to_dict()
+    water = d["water"][0]
+    iops = water.pop("iops")
+    water["iop_profile"] = {"z_top": [0.0, -2.0], "layers": [
+        {"iops": dict(iops, absorption=list(a_top))}, {"iops": dict(iops, absorption=list(a_low))}]}
+    scene = Scene.from_dict(d)
+    r = render(scene, radiometer_samples=100_000, seed=9, threads=2).radiometers[0]
+    zs = np.linspace(1.0, 1000.0, 4_000_001)  # depth below the surface (beyond: < 1e-12 of it)
+
+    def tau(c1, c2, z0, z1):  # optical depth from depth z0 down to z1 (boundary at 2 m)
+        top = np.clip(np.minimum(z1, 2.0) - z0, 0.0, None)
+        return c1 * top + c2 * np.clip(z1 - np.maximum(z0, 2.0), 0.0, None)
+
+    e450 = T * np.exp(-tau(c_top[0], c_low[0], 0.0, zs))
+    up = np.exp(-tau(c_top[1], c_low[1], 1.0, zs))
+    m = inelastic.raman_coupling(BANDS)
+    expect = inelastic.raman_phase(1.0) * m[1, 0] * np.trapz(e450 * up, zs)
+    value, se = float(r.mean[0, 1]), float(r.stderr[0, 1])
+    assert abs(value - expect) < 3.5 * se + 2e-5 * expect, (value, se, expect)
