@@ -126,11 +126,100 @@ def test_raman_radiance_under_an_oblique_sun_matches_its_closed_form():
     assert abs(value - expect) < 3.5 * se + 2e-4 * expect, (value, se, expect)
 
 
-def test_without_raman_or_with_path_tracing_nothing_shifts():
+def test_without_raman_nothing_shifts():
     off = render(_sea(BANDS, A, [1.0, 0.0], "Eu", raman=False), radiometer_samples=20_000, seed=1).radiometers[0]
     assert off.mean[0, 1] == 0.0 and not off.components["raman"][0].any()
-    path = _sea(BANDS, A, [1.0, 0.0], "Eu", integrator="path")
-    assert any("hybrid integrator's beams" in w for w in scene_warnings(path))
+    assert not any("integrator" in w for w in scene_warnings(_sea(BANDS, A, [1.0, 0.0], "Eu", integrator="path")))
+
+
+def _fresnel_in(mu_w):
+    """Unpolarised Fresnel transmittance of the flat surface for light refracted to the
+    in-water cosine mu_w (the same both ways)."""
+    mu_a = np.sqrt(np.clip(1.0 - IOR ** 2 * (1.0 - mu_w ** 2), 0.0, None))
+    rs = ((mu_a - IOR * mu_w) / (mu_a + IOR * mu_w)) ** 2
+    rp = ((IOR * mu_a - mu_w) / (IOR * mu_a + mu_w)) ** 2
+    return 1.0 - 0.5 * (rs + rp)
+
+
+def _sky_raman_nadir_radiance(tau450, tau531, depth, sky):
+    """The nadir radiance (light going straight up) in band 531 at `depth` below a flat
+    surface under a uniform sky of radiance `sky` in band 450 only, in water that does not
+    scatter elastically: band 450's light comes down inside Snell's window with radiance
+    n^2 T(mu) sky exp(-tau450(0, z) / mu) (no light goes up in band 450: nothing scatters it
+    back), is Raman-scattered at every depth z below, and comes up attenuated by
+    tau531(depth, z): L = M[531, 450] int_depth^inf int_window p_R(mu) n^2 T(mu) sky
+    exp(-tau450(0, z) / mu) exp(-tau531(depth, z)) 2 pi dmu dz. tau*(z0, z1): the optical
+    depth (a + b_R) between two depths, vectorised."""
+    mu_c = np.sqrt(1.0 - 1.0 / IOR ** 2)
+    mu = np.linspace(mu_c, 1.0, 801)[:, None]
+    z = np.unique(np.concatenate([np.linspace(depth, depth + 2.0, 2_001), np.geomspace(depth + 2.0, 3e4, 8_001)]))
+    z = z[None, :]
+    down = IOR ** 2 * _fresnel_in(mu) * sky * np.exp(-tau450(0.0, z) / mu)
+    source = 2 * np.pi * np.trapz(inelastic.raman_phase(mu) * down, mu[:, 0], axis=0)
+    m = inelastic.raman_coupling(BANDS)
+    return m[1, 0] * np.trapz(source * np.exp(-tau531(depth, z[0])), z[0])
+
+
+SKY_A = [0.005, 0.01]  # clear water: the Raman light of a deep layer (the paths' Raman collisions
+# come at the rate of Raman scattering, about 2e-4 per metre; what they find, attenuated)
+SKY_TOP, SKY_LOW = [0.02, 0.04], [0.004, 0.008]
+
+
+def _sun_raman_radiance_in_cap(tau450, tau531, depth, cap):
+    """The same radiance from a sun at the zenith (irradiance 1 in band 450), averaged over a
+    cap of half-angle `cap` around the nadir: p_R(mu) M T0 int exp(-tau450(0, z))
+    exp(-tau531(depth, z) / mu) dz / mu."""
+    mu = np.linspace(np.cos(cap), 1.0, 201)[:, None]
+    z = np.unique(np.concatenate([np.linspace(depth, depth + 2.0, 2_001), np.geomspace(depth + 2.0, 3e4, 8_001)]))
+    up = np.exp(-tau450(0.0, z)[None, :] - tau531(depth, z)[None, :] / mu) / mu
+    m = inelastic.raman_coupling(BANDS)
+    radiance = inelastic.raman_phase(mu[:, 0]) * m[1, 0] * T * np.trapz(up, z, axis=1)
+    return np.trapz(radiance, mu[:, 0]) / (1.0 - np.cos(cap))
+
+
+def _sky_sea(integrator, layered=False):
+    d = _sea(BANDS, SKY_A, [0.0, 0.0], "radiance", [0.0, 0.0, -1.0], 2.0, integrator=integrator).to_dict()
+    if integrator == "path":  # (path tracing finds the sun only by escaping into its disk)
+        d.pop("sun", None)
+    else:
+        d["sun"]["irradiance"] = [1.0, 0.0]
+    d["sky"] = {"type": "uniform", "radiance": [1.0, 0.0]}
+    if layered:
+        water = d["water"][0]
+        iops = water.pop("iops")
+        water["iop_profile"] = {"z_top": [0.0, -2.0], "layers": [
+            {"iops": dict(iops, absorption=SKY_TOP)}, {"iops": dict(iops, absorption=SKY_LOW)}]}
+    return Scene.from_dict(d)
+
+
+@pytest.mark.parametrize("integrator", ["path", "hybrid"])
+@pytest.mark.parametrize("layered", [False, True], ids=["homogeneous", "layered"])
+def test_raman_of_skylight_matches_its_closed_form(integrator, layered):
+    """Skylight, which no beam carries: the paths' own Raman collisions (both integrators)
+    against the closed form of single Raman scattering of the refracted sky, in homogeneous
+    water and in two layers (clearer below 2 m); the hybrid with the sun at the zenith too,
+    whose Raman light its beams give (the two must add, neither counted twice)."""
+    b_r = inelastic.raman_b([b.center_nm for b in BANDS])
+    if layered:
+        c_top, c_low = np.array(SKY_TOP) + b_r, np.array(SKY_LOW) + b_r
+
+        def tau(k):
+            return lambda z0, z1: (c_top[k] * np.clip(np.minimum(z1, 2.0) - z0, 0.0, None)
+                                   + c_low[k] * np.clip(z1 - np.maximum(z0, 2.0), 0.0, None))
+    else:
+        c = np.asarray(SKY_A) + b_r
+
+        def tau(k):
+            return lambda z0, z1: c[k] * (z1 - z0)
+    cap = np.radians(2.0)
+    expect = _sky_raman_nadir_radiance(tau(0), tau(1), 1.0, 1.0)  # (the 2 deg cap: < 1e-4 off)
+    if integrator == "hybrid":
+        expect += _sun_raman_radiance_in_cap(tau(0), tau(1), 1.0, cap)
+    r = render(_sky_sea(integrator, layered), radiometer_samples=4_000_000, seed=11, threads=2).radiometers[0]
+    value, se = float(r.mean[0, 1]), float(r.stderr[0, 1])
+    assert value == pytest.approx(float(r.components["raman"][0][0, 1]))  # all of it Raman light
+    assert se < 0.015 * value, (value, se)
+    assert abs(value - expect) < 3.5 * se + 2e-3 * expect, (value, se, expect, cap)
 
 
 def test_bands_without_their_excitation_are_named():

@@ -96,8 +96,7 @@ void Scene::beam_scatter_sum(const Vec3& o, const Vec3& d, double t, double pdf,
     for (int j = 0; j < n; ++j) {
         double xs = std::max(0.0, 1.0 + dot(beams[j].d, d));  // 1 - cos(psi)
         if (inelastic) {  // (Raman light leaves the beam's band: no forward cone for it)
-            const double mu = 1.0 - xs;
-            const double p = 3.0 / (4.0 * kPi * (3.0 + w.raman_rho)) * (1.0 + w.raman_rho * mu * mu);
+            const double p = w.raman_phase(1.0 - xs);
             for (int kb = 0; kb < nbands; ++kb) {
                 double r = 0.0;
                 for (int ki = w.raman_from[kb]; ki < w.raman_to[kb]; ++ki)
@@ -211,8 +210,25 @@ Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_
     BeamTerms terms;
     Components out = trace_path(o, d, medium, sun_covered, beam_covered, rng, c, first_beam_weight, camera,
                                 reflect_covered, terms);
-    settle_beam_terms(terms, &out);
+    if (terms.inelastic) fold_inelastic(terms, &out);
+    else settle_beam_terms(terms, &out);
     return out;
+}
+
+void Scene::fold_inelastic(BeamTerms& t, Components* out) const {
+    settle_beam_terms(t, out);
+    const int nb = nbands;
+    const Components& b = t.before;
+    double found[kMaxBands];
+    for (int i = 0; i < nb; ++i)
+        found[i] = out->path.v[i] - b.path.v[i] + out->beam_surface.v[i] - b.beam_surface.v[i] +
+                   out->beam_volume.v[i] - b.beam_volume.v[i] + out->raman.v[i] - b.raman.v[i];
+    Spectrum raman = b.raman;
+    for (int k = 0; k < nb; ++k)
+        for (int i = 0; i < nb; ++i) raman.v[k] += t.share[k * nb + i] * found[i];
+    *out = b;
+    out->raman = raman;
+    t.before = *out;
 }
 
 Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
@@ -289,8 +305,40 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
             bv_weight = 1.0;
             double dt = walk.first_flight(rng, t_hit, clipped, intersect_rest);
             const WaterLayer* L = nullptr;  // the coefficients at the tentative collision (walk.collide)
-            while (t_cur + dt < t_hit) {
-                t_cur += dt;
+            // Raman scattering: tentative collisions of its own at the water's uniform rate
+            // raman_rate, independent of the walk's (exponential flights are memoryless, so
+            // neither disturbs the other). Its source, sum_i raman[k][i] L_i, is a gain of band
+            // k, not a loss (that is in the absorption): at such a collision the path scatters
+            // with probability p = q / (1 + q), q the throughput-weighted raman_in / rate, or
+            // goes on with the whole null weight 1 / (1 - p).
+            const double raman_rate = w.raman.empty() ? 0.0 : w.raman_rate;
+            auto raman_flight = [&]() { return raman_rate > 0.0 ? -std::log(1.0 - rng.uniform()) / raman_rate : kInf; };
+            double t_raman = raman_flight();
+            double raman_p = 0.0;  // the chosen collision's p (0: none)
+            for (;;) {
+                const double t_next = t_cur + dt;
+                if (t_raman < t_next && t_raman < t_hit) {
+                    double num = 0.0, den = 0.0;
+                    for (int k = 0; k < nb; ++k) {
+                        num += beta.v[k] * w.raman_in.v[k];
+                        den += beta.v[k];
+                    }
+                    const double q = den > 0.0 ? num / (den * raman_rate) : 0.0;
+                    if (!(q > 0.0)) {  // no band here gains Raman light (and none will on this segment)
+                        t_raman = kInf;
+                        continue;
+                    }
+                    const double p = q / (1.0 + q);
+                    if (rng.uniform() < p) {
+                        raman_p = p;
+                        break;
+                    }
+                    for (int k = 0; k < nb; ++k) beta.v[k] *= 1.0 + q;
+                    t_raman += raman_flight();
+                    continue;
+                }
+                if (!(t_next < t_hit)) break;
+                t_cur = t_next;
                 double maj;
                 L = &walk.collide(t_cur, dt, &maj);
                 // Any probability fixed before the decision keeps the estimate unbiased;
@@ -313,6 +361,53 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 for (int k = 0; k < nb; ++k) beta.v[k] *= (1.0 - L->b_path.v[k] / maj) / (1.0 - p_real);
                 if (clipped) intersect_rest(t_cur);  // a null collision: now find the surface beyond it
                 dt = walk.next_flight(rng, t_cur, t_hit, clipped, intersect_rest);
+            }
+            if (raman_p > 0.0) {
+                // A Raman collision: the path goes on as the light that excites its bands,
+                // beta_i = sum_k beta_k raman[k][i] / (rate p), in a direction drawn from the
+                // Raman phase function; everything it finds from here on is Raman light.
+                walk.leave_at(t_raman, t_cur);
+                walk.flush(w, &beta);
+                if (terms.inelastic) {
+                    fold_inelastic(terms, &out);
+                } else {
+                    settle_beam_terms(terms, &out);
+                    terms.inelastic = true;
+                    terms.before = out;
+                    for (int k = 0; k < nb * nb; ++k) terms.share[k] = k % (nb + 1) == 0 ? 1.0 : 0.0;
+                }
+                // Band i now carries sum_k beta_k raman[k][i] / (rate p); of what it finds,
+                // band k of the path so far gets the share beta_k raman[k][i] / sum_k' (...).
+                Spectrum excite;
+                double a[kMaxBands * kMaxBands] = {};
+                for (int k = 0; k < nb; ++k)
+                    for (int i = w.raman_from[k]; i < w.raman_to[k]; ++i) {
+                        a[k * nb + i] = beta.v[k] * w.raman[size_t(k) * nb + i];
+                        excite.v[i] += a[k * nb + i];
+                    }
+                double share[kMaxBands * kMaxBands] = {};
+                for (int k = 0; k < nb; ++k)
+                    for (int j = 0; j < nb; ++j) {
+                        const double s = terms.share[k * nb + j];
+                        if (s == 0.0) continue;
+                        for (int i = w.raman_from[j]; i < w.raman_to[j]; ++i)
+                            if (excite.v[i] > 0.0) share[k * nb + i] += s * a[j * nb + i] / excite.v[i];
+                    }
+                std::copy_n(share, nb * nb, terms.share);
+                const double scale = 1.0 / (raman_rate * raman_p);
+                for (int i = 0; i < nb; ++i) excite.v[i] *= scale;
+                beta = excite;
+                if (++depth > max_depth) return out;
+                o = o + d * t_raman;
+                d = w.sample_raman_direction(d, rng);
+                sun_covered = false;
+                beam_covered = hybrid;  // the beams' Raman light at this point is in the last beam term
+                if (depth >= rr_depth) {
+                    double q = std::min(0.95, max_component(beta, nb));
+                    if (!(rng.uniform() < q)) return out;
+                    for (int k = 0; k < nb; ++k) beta.v[k] /= q;
+                }
+                continue;
             }
             if (scattered) {
                 L = &walk.scatter_at(t_cur, &out.beam_volume);

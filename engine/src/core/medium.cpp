@@ -79,6 +79,15 @@ void Water::set_forward_cone(const std::vector<PhaseFunction>& phases, double co
 // s0 + sum_f s1[f] rho_f, and the water's bounds (majorant, smallest beam attenuation,
 // beam-scattering rate, MIS weights) widened to every density in the grid.
 // c(x) = c_base + sum_f rho_f c_unit,f with rho_f >= 0 and c_unit,f >= 0.
+Vec3 Water::sample_raman_direction(const Vec3& d, Rng& rng) const {
+    // cos(psi) by rejection from the uniform density (accepted at least 1 / (1 + rho) of the
+    // time: 65 % for water's 0.55), then a uniform azimuth about d.
+    double mu;
+    do mu = 2.0 * rng.uniform() - 1.0;
+    while (rng.uniform() * (1.0 + raman_rho) > 1.0 + raman_rho * mu * mu);
+    return direction_around(d, 1.0 - mu, 2.0 * kPi * rng.uniform());
+}
+
 void Water::set_grid_coefficients(int nbands) {
     VoxelGrid& g = *grid;
     const int nf = grid_fields();

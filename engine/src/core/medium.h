@@ -65,13 +65,23 @@ struct Water {
     // coefficient (m^-1) with which light of excitation band i, Raman-scattered, adds to
     // emission band j per unit of band i's spectral irradiance (b_R(i) times the share of its
     // emission in band j, photons to energy), and raman_rho the phase function's
-    // 3 / (4 pi (3 + rho)) (1 + rho cos^2); empty: none. Only the beams' light is
-    // Raman-scattered (single inelastic scattering of the refracted sun).
+    // 3 / (4 pi (3 + rho)) (1 + rho cos^2); empty: none. The beams' light (single
+    // scattering of the refracted sun) and paths (their own inelastic collisions) alike.
     std::vector<double> raman;
     double raman_rho = 0.55;
     // Per emission band j, the excitation bands [raman_from[j], raman_to[j]) of its nonzero
     // couplings (a few neighbours: the loop over them is what Raman costs per beam).
     std::vector<int> raman_from, raman_to;
+    // Per emission band j, sum_i raman[j * nb + i] (its gain per unit radiance of its
+    // excitation bands), and their largest: the rate of the paths' tentative Raman
+    // collisions (uniform: a property of the water itself, the same in every layer).
+    Spectrum raman_in;
+    double raman_rate = 0.0;
+    // The Raman phase function at cos(psi) = mu, and a direction drawn from it around d.
+    double raman_phase(double mu) const {
+        return 3.0 / (4.0 * kPi * (3.0 + raman_rho)) * (1.0 + raman_rho * mu * mu);
+    }
+    Vec3 sample_raman_direction(const Vec3& d, Rng& rng) const;
 
     // Its kind: homogeneous (one layer, no grid), layered (stratified) or gridded (grid set,
     // over one layer or several); varying(): not homogeneous.
@@ -400,6 +410,13 @@ public:
         else pending_ += dt;
         *majorant = w.grid ? w.grid_majorant(grho_) : w.stratified() ? L_->majorant : w.majorant;
         return *L_;
+    }
+    // The path leaves the segment at t by a collision of its own process (Raman scattering,
+    // independent of the walk's), the walk's last tentative collision at t_cur: the
+    // absorption travelled up to t. (Not in gridded water: it has no Raman collisions.)
+    void leave_at(double t, double t_cur) {
+        if (w_->stratified()) travel(t);
+        else pending_ += t - t_cur;
     }
     // The path scatters at the last collision t: the waiting beam term and the absorption up
     // to t settled; the coefficients there with each component's b_path.

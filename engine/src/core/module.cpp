@@ -237,10 +237,18 @@ PYBIND11_MODULE(_core, m) {
                         if (w.raman_to[j] == 0) w.raman_from[j] = i;
                         w.raman_to[j] = i + 1;
                     }
+            w.raman_in = Spectrum();
+            w.raman_rate = 0.0;
+            for (int j = 0; j < nb; ++j) {
+                for (int i = 0; i < nb; ++i) w.raman_in.v[j] += w.raman[size_t(j) * nb + i];
+                w.raman_rate = std::max(w.raman_rate, w.raman_in.v[j]);
+            }
+            if (!(w.raman_rate > 0.0)) w.raman.clear();  // (no band receives any: none)
         }, py::arg("water"), py::arg("coupling"), py::arg("rho"),
            "Raman scattering by the water body's water: coupling[j, i] (m^-1) from excitation band i "
            "into emission band j per unit of band i's spectral irradiance; phase function "
-           "3 / (4 pi (3 + rho)) (1 + rho cos^2). The beams' light only (single inelastic scattering).")
+           "3 / (4 pi (3 + rho)) (1 + rho cos^2). The beams' single scattering and the paths' own "
+           "Raman collisions (both integrators).")
         .def("add_water_layer", [](Scene& s, int water, double z_top, DArray a, std::vector<DArray> b) {
             if (water < 0 || water >= int(s.waters.size())) throw std::invalid_argument("bad water index");
             Water& w = s.waters[water];

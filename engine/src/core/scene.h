@@ -184,7 +184,7 @@ struct Components {
     Spectrum beam_surface;  // the sun from beams on surfaces (refracted under water, reflected in the air)
     Spectrum beam_volume;   // single scattering of beams along traced water segments
     Spectrum path;          // everything path tracing finds itself (sky, sun above water, ...)
-    Spectrum raman;         // the beams' light Raman-scattered by water into these bands
+    Spectrum raman;         // light Raman-scattered by water into these bands (beams' or paths')
 };
 
 struct alignas(64) Counters {  // one cache line each: no false sharing between threads
@@ -488,7 +488,17 @@ private:
         };
         int n = 0;
         Term terms[kMax];
+        // After a Raman collision the path carries the light of the bands that excite the
+        // ones it set out in: what it finds in band i goes to band k of the result at
+        // share[k * nb + i] (fold_inelastic), into the raman component. `before`: the
+        // components when it was last folded; inelastic: whether it had such a collision.
+        bool inelastic = false;
+        Components before;
+        double share[kMaxBands * kMaxBands];
     };
+    // Moves what the path found since its last Raman collision into the raman component, in
+    // the bands it set out in (the terms settled first).
+    void fold_inelastic(BeamTerms& b, Components* out) const;
     // Queues a term (settling a full list first); returns its weight, for the caller to fill.
     double* queue_beam_term(BeamTerms& b, Components* out, const Vec3& o, const Vec3& d, double t, double pdf,
                             int medium, double den) const;

@@ -159,14 +159,10 @@ def scene_warnings(s: Scene) -> list[str]:
 
 
 def _raman_warnings(s: Scene) -> list[str]:
-    """What Raman scattering (settings.raman) cannot give this scene: light outside the
-    hybrid integrator's beams, gridded water, excitation outside the bands."""
+    """What Raman scattering (settings.raman) cannot give this scene: gridded water,
+    excitation outside the bands."""
     from ..inelastic import RAMAN_FWHM_CM, RAMAN_SHIFT_CM, raman_coupling, raman_coverage
     out = []
-    if s.settings.integrator == "path" or s.sun is None:
-        out.append("settings.raman: Raman scattering comes from the hybrid integrator's beams (the "
-                   "refracted sun); this scene renders without them (path integrator or no sun): no "
-                   "Raman light")
     for w in s.water:
         if isinstance(w.iops, IOPGrid):
             out.append(f"water '{w.name}': Raman scattering is not computed in gridded water (iop_grid) "
