@@ -6,6 +6,9 @@ import math
 
 from .export_values import blender_float
 
+#: Scene.photic.raman -> the engine's settings.raman
+RAMAN_SETTING = {"AUTO": "auto", "ON": True, "OFF": False}
+
 
 def settings(ex):
     """The engine's settings from the scene's Photic properties."""
@@ -20,4 +23,5 @@ def settings(ex):
                                     if p.use_target_error else None),
                       noise_threshold=(blender_float(p.noise_threshold) / 100.0
                                        if p.use_noise_threshold else None),
-                      adaptive_min_samples=int(p.adaptive_min_samples), raman=bool(p.raman))
+                      adaptive_min_samples=int(p.adaptive_min_samples),
+                      raman=RAMAN_SETTING[p.raman])

@@ -23,6 +23,7 @@ from . import bands as bandmod
 from . import scene_notes
 from .engine_loader import load_engine, engine_error
 from .export import ExportCancelled, ExportError, export_scene
+from .export_settings import RAMAN_SETTING
 
 #: Render passes besides Combined: (Blender pass name, engine component).
 COMPONENT_PASSES = (("Photic Beam Surface", "beam_surface"),
@@ -30,7 +31,7 @@ COMPONENT_PASSES = (("Photic Beam Surface", "beam_surface"),
                     ("Photic Path", "path"))
 VARIANCE_PASS = "Photic Variance"
 PASS_NAMES = tuple(p for p, _ in COMPONENT_PASSES) + (VARIANCE_PASS,)
-RAMAN_PASS = "Photic Raman"  # (with Raman Scattering on: the sun's light Raman-scattered by water)
+RAMAN_PASS = "Photic Raman"  # (when a render has Raman light: light Raman-scattered by water)
 ALBEDO_PASS, NORMAL_PASS, NOISY_PASS = "Denoising Albedo", "Denoising Normal", "Noisy Image"
 UPDATE_INTERVAL_S = 0.5
 FRAME_INTERVAL_S = 0.9  # the render view's image at most this often (each costs a full-image write)
@@ -300,13 +301,32 @@ def remote_scheduler_refusal(address: str, allowed: bool) -> str | None:
     return None
 
 
+def raman_rendered(props) -> bool:
+    """Whether a render with these Photic properties has Raman light: the engine's
+    ``inelastic.raman_active`` for the settings and bands the export gives it (Blender needs
+    the Raman pass declared before the render)."""
+    mode = RAMAN_SETTING[props.raman]
+    if mode != "auto":
+        return mode
+    photic = load_engine()
+    if photic is None:
+        return False  # (no engine: no render)
+    try:
+        bands = bandmod.scene_bands(props)
+    except bandmod.BandError:
+        return False  # (the export refuses these bands: no render)
+    from photic.inelastic import raman_auto
+    return raman_auto([photic.scene.Band(*b) for b in bands])
+
+
 def render_passes(scene) -> list[tuple[str, str, str]]:
     """(name, channels, type) of the passes a render of ``scene`` writes: Combined, the
-    components and variance, and with Denoise or Denoising Data the denoising passes (named as
-    Cycles names them, so the compositor's Denoise node takes them as it takes Cycles')."""
+    components and variance, the Raman pass when it has Raman light, and with Denoise or
+    Denoising Data the denoising passes (named as Cycles names them, so the compositor's
+    Denoise node takes them as it takes Cycles')."""
     out = [("Combined", "RGBA", "COLOR")] + [(n, "RGB", "COLOR") for n in PASS_NAMES]
     p = getattr(scene, "photic", None) if scene is not None else None
-    if p is not None and p.raman:
+    if p is not None and raman_rendered(p):
         out.append((RAMAN_PASS, "RGB", "COLOR"))
     if p is not None and (p.denoise or p.denoising_data):
         out += [(ALBEDO_PASS, "RGB", "COLOR"), (NORMAL_PASS, "XYZ", "VECTOR")]

@@ -285,7 +285,7 @@ def import_scene(scene, bscene=None, collection=None) -> dict:
     props.integrator = st.integrator.upper()
     props.samples, props.radiometer_samples, props.seed = st.samples, st.radiometer_samples, st.seed
     props.max_depth, props.threads, props.beam_max_level = st.max_depth, st.threads, st.beam_max_level
-    props.raman = bool(st.raman)
+    props.raman = "AUTO" if st.raman == "auto" else ("ON" if st.raman else "OFF")
     props.use_target_error = st.target_error is not None
     if st.target_error is not None:
         props.target_error = 100.0 * st.target_error

@@ -588,12 +588,19 @@ class PhoticSceneProperties(bpy.types.PropertyGroup):
                                 description="Levels of adaptive subdivision of a surface "
                                             "triangle's beam where its rays disagree (each "
                                             "level halves the beam cell size)")
-    raman: BoolProperty(
-        name="Raman Scattering", default=False,
-        description="Raman scattering by water: the refracted sun's beams shifted by 3,400 cm^-1 "
-                    "into the scene's longer-wavelength bands (hybrid integrator; the component "
-                    "'raman' of the radiometer tables). Needs bands where the excitation lies, "
-                    "about 60-100 nm bluer than each band")
+    raman: EnumProperty(
+        name="Raman Scattering", default="AUTO",
+        # (numbered so that a .blend saved with the former checkbox reads False as OFF and
+        # True as ON)
+        items=[("AUTO", "Auto", "On where the scene's bands can receive Raman light: where a "
+                                "band's excitation, about 60-100 nm bluer than it, lies among "
+                                "the bands (else purely elastic)", "NONE", 2),
+               ("ON", "On", "Raman scattering by water in any scene", "NONE", 1),
+               ("OFF", "Off", "Purely elastic: no Raman scattering", "NONE", 0)],
+        description="Raman scattering by water: light shifted by 3,400 cm^-1 into the scene's "
+                    "longer-wavelength bands (b_R 2.7e-4 m^-1 at 488 nm excitation), in both "
+                    "integrators; the component 'raman' of the radiometer tables and the "
+                    "Photic Raman pass")
     auto_exposure: BoolProperty(
         name="Auto Exposure", default=True,
         description="After a render (and in the viewport), set the scene's display exposure "

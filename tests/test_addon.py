@@ -115,9 +115,11 @@ def test_example_blends_render_through_the_addon(tmp_path, name, has_radiometers
         combined = np.stack([channels[f"{layer}{final_render.NOISY_PASS}.{c}"] for c in "RGB"], -1)
         for p in (final_render.ALBEDO_PASS, final_render.NORMAL_PASS):
             assert any(k.startswith(f"{layer}{p}.") for k in channels), p
-    # The component passes sum to the combined image (hybrid integrator).
-    parts = sum(np.stack([channels[f"{layer}{p}.{c}"] for c in "RGB"], -1)
-                for p in final_render.PASS_NAMES[:3])
+    # The component passes sum to the combined image (hybrid integrator; the Raman pass
+    # where Raman scattering is on).
+    names = final_render.PASS_NAMES[:3] + ((final_render.RAMAN_PASS,)
+                                           if f"{layer}{final_render.RAMAN_PASS}.R" in channels else ())
+    parts = sum(np.stack([channels[f"{layer}{p}.{c}"] for c in "RGB"], -1) for p in names)
     np.testing.assert_allclose(parts, combined[..., :3], rtol=1e-4, atol=1e-6)
     assert np.all(np.stack([channels[f"{layer}Photic Variance.{c}"] for c in "RGB"]) >= 0)
     if has_radiometers:

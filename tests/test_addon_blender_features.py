@@ -621,21 +621,51 @@ def test_other_world_nodes_are_named(empty):
     assert any("Gradient Texture" in w and "World 'World'" in w for w in info.warnings), info.warnings
 
 
-def test_the_raman_checkbox_turns_raman_scattering_on(empty):
+@pytest.mark.parametrize("mode, setting", [("AUTO", "auto"), ("ON", True), ("OFF", False)])
+def test_raman_is_auto_by_default_and_its_setting_goes_out_and_back(empty, mode, setting):
+    from photic_blender.importer import import_scene
     add_camera()
     add_sun()
     p = empty.photic
-    assert p.raman is False
+    assert p.raman == "AUTO"
+    p.raman = mode
     scene, _ = export_current()
-    assert scene.settings.raman is False
-    assert final_render.RAMAN_PASS not in [n for n, _, _ in final_render.render_passes(empty)]
-    p.raman = True
-    scene, _ = export_current()
-    assert scene.settings.raman is True
-    # F12 then registers and fills a Raman pass (the engine's raman component of the pixels).
-    assert final_render.RAMAN_PASS in [n for n, _, _ in final_render.render_passes(empty)]
+    assert type(scene.settings.raman) is type(setting) and scene.settings.raman == setting
+    other = bpy.data.scenes.new("Imported")
+    import_scene(scene, other)
+    assert other.photic.raman == mode
+
+
+# (the default RGB bands, one band, and two red bands whose excitation lies outside them)
+@pytest.mark.parametrize("bands", [{}, {"bands": "SINGLE"},
+                                   {"bands": "CUSTOM", "custom_bands": "600:20, 650:20"}])
+@pytest.mark.parametrize("mode", ["AUTO", "ON", "OFF"])
+def test_the_raman_pass_is_declared_exactly_when_the_engine_renders_raman_light(empty, mode, bands):
+    from photic.inelastic import raman_active, raman_auto
     from photic.render import render as engine_render
+    add_camera()
+    add_sun()
+    p = empty.photic
+    for k, v in bands.items():
+        setattr(p, k, v)
+    p.raman = mode
+    scene, _ = export_current()
+    declared = final_render.RAMAN_PASS in [n for n, _, _ in final_render.render_passes(empty)]
+    expected = raman_auto(scene.bands) if mode == "AUTO" else mode == "ON"
+    assert declared == expected == raman_active(scene)
+    # F12 fills the declared pass with the engine's raman component of the pixels, and the
+    # engine gives that component exactly then.
     scene.cameras[0].resolution = (4, 3)
     img = next(iter(engine_render(scene, samples=2, threads=1).images.values()))
+    assert ("raman" in img.components) == declared
     bands = [(b.name, b.center_nm, b.width_nm) for b in scene.bands]
-    assert final_render.RAMAN_PASS in final_render.image_passes(img, bands)
+    assert (final_render.RAMAN_PASS in final_render.image_passes(img, bands)) == declared
+
+
+def test_a_blend_saved_with_the_raman_checkbox_keeps_its_choice(empty):
+    # (the checkbox stored its value as an integer ID property; one never set stored nothing
+    # and reads as the default, Auto)
+    p = empty.photic
+    for stored, mode in ((1, "ON"), (0, "OFF")):
+        p["raman"] = stored
+        assert p.raman == mode

@@ -232,11 +232,29 @@ def test_bands_without_their_excitation_are_named():
     assert any("band '531'" in w and "%" in w for w in scene_warnings(narrow)), scene_warnings(narrow)
 
 
-def test_raman_must_be_true_or_false():
+def test_raman_must_be_true_false_or_auto():
     scene = _sea(BANDS, A, [1.0, 0.0], "Eu")
     scene.settings.raman = "yes"
     with pytest.raises(SceneError, match="raman"):
         scene.validate()
+
+
+def test_raman_is_on_by_default_where_the_bands_can_receive_it():
+    d = _sea(BANDS, A, [1.0, 0.0], "Eu").to_dict()
+    d["settings"].pop("raman")
+    scene = Scene.from_dict(d)
+    assert scene.settings.raman == "auto" and inelastic.raman_active(scene)
+    assert "raman" not in scene.to_dict()["settings"]  # (the default is not written)
+    one = Scene.from_dict(dict(d, bands=[{"name": "550", "center_nm": 550.0, "width_nm": 10.0}],
+                               water=[dict(d["water"][0], iops={"absorption": [0.05], "b": [0.0],
+                                                               "phase": {"type": "isotropic"}})],
+                               sun=dict(d["sun"], irradiance=[1.0])))
+    assert not inelastic.raman_active(one)  # one band: nothing to receive
+    r = render(scene, radiometer_samples=20_000, seed=2).radiometers[0]
+    assert r.mean[0, 1] > 0 and r.components["raman"][0][0, 1] == r.mean[0, 1]
+    assert sum("settings.raman (auto: on)" in w for w in scene_warnings(scene)) == 1  # one line, not per band
+    scene.settings.raman = False
+    assert not inelastic.raman_active(scene) and not any("raman" in w for w in scene_warnings(scene))
 
 
 

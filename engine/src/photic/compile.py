@@ -70,9 +70,9 @@ def scene_band_groups(scene) -> list[slice]:
 def raman_group_warnings(scene) -> list[str]:
     """With settings.raman, the bands that lose Raman light to the band groups (a path
     carries only its group's bands; scene_band_groups)."""
-    if not getattr(scene.settings, "raman", False):
+    from .inelastic import raman_active, raman_coupling
+    if not raman_active(scene):
         return []
-    from .inelastic import raman_coupling
     groups = scene_band_groups(scene)
     if len(groups) < 2:
         return []
@@ -142,9 +142,9 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
     # Raman scattering (settings.raman): light leaves each band at b_R (added to its
     # absorption) and the beams' light comes back in the bands it shifts to (the coupling);
     # only between the bands of this group (render warns when groups part coupled bands).
+    from .inelastic import RAMAN_RHO, raman_active, raman_b, raman_coupling
     raman = None
-    if getattr(scene.settings, "raman", False):
-        from .inelastic import RAMAN_RHO, raman_b, raman_coupling
+    if raman_active(scene):
         centers = np.array([b.center_nm for b in scene.bands], float)
         raman = (sel(raman_b(centers)), np.ascontiguousarray(raman_coupling(scene.bands)[bands, bands]))
     loss = (lambda a: sel(a) + raman[0]) if raman is not None else sel

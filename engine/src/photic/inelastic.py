@@ -23,7 +23,9 @@ averaged over band j, where f(lambda' -> lambda) is the emission's density per n
 """
 from __future__ import annotations
 
+import functools
 import math
+import types
 
 import numpy as np
 
@@ -65,8 +67,9 @@ def excitation_nm(emission_nm) -> np.ndarray:
 
 
 def _band_nodes(center: float, width: float) -> np.ndarray:
-    """Midpoint nodes over [center - width / 2, center + width / 2]."""
-    return center + width * ((np.arange(_NODES) + 0.5) / _NODES - 0.5)
+    """Midpoint nodes over [center - width / 2, center + width / 2], at wavelengths above 1 nm
+    (a band wider than twice its centre reaches below 0: no light there)."""
+    return np.maximum(center + width * ((np.arange(_NODES) + 0.5) / _NODES - 0.5), 1.0)
 
 
 def raman_coupling(bands) -> np.ndarray:
@@ -84,6 +87,29 @@ def raman_coupling(bands) -> np.ndarray:
             lem = _band_nodes(centers[j], widths[j])
             m[j, i] = float(np.mean(emission_density(lex[None, :], lem[:, None]) @ bex))
     return m
+
+
+AUTO_COVERAGE = 0.05  # "auto" turns Raman on where a band gets at least this share of its Raman light
+
+
+def raman_auto(bands) -> bool:
+    """Whether ``settings.raman = "auto"`` (the default) renders Raman scattering for these
+    bands: where some band gets at least 5 % of its Raman light from the bands' own excitation
+    (else there is nothing to see, and the scene renders as purely elastic)."""
+    return _raman_auto(tuple((float(b.center_nm), float(b.width_nm)) for b in bands))
+
+
+@functools.lru_cache(maxsize=64)
+def _raman_auto(bands: tuple) -> bool:  # (asked per image and per unit: a few ms each)
+    bs = [types.SimpleNamespace(center_nm=c, width_nm=w) for c, w in bands]
+    return len(bs) > 1 and bool((raman_coverage(bs) >= AUTO_COVERAGE).any() and raman_coupling(bs).any())
+
+
+def raman_active(scene) -> bool:
+    """Whether a scene renders Raman scattering: ``settings.raman`` true, or "auto" where
+    ``raman_auto`` says its bands can receive it."""
+    mode = getattr(scene.settings, "raman", "auto")
+    return raman_auto(scene.bands) if mode == "auto" else bool(mode)
 
 
 def raman_coverage(bands) -> np.ndarray:

@@ -24,7 +24,7 @@ COMPONENT_DESCRIPTIONS = {
     "beam_volume": "single scattering of beams along traced water segments",
     "path": "everything path tracing finds itself: sky, sun above water, multiple scattering of sky light",
     "beam_direct": "refracted sun reaching the radiometer directly, from the beams in closed form",
-    "raman": "the beams' light Raman-scattered by water into this band (settings.raman; else 0)",
+    "raman": "light Raman-scattered by water into this band, by the beams or along paths (settings.raman; else 0)",
 }
 
 

@@ -42,7 +42,8 @@ IMAGE_COMPONENTS = ("beam_surface", "beam_volume", "path", "raman")
 
 def image_components(scene) -> tuple[str, ...]:
     """The component passes of a scene's pixels."""
-    return IMAGE_COMPONENTS if getattr(scene.settings, "raman", False) else IMAGE_COMPONENTS[:3]
+    from .inelastic import raman_active
+    return IMAGE_COMPONENTS if raman_active(scene) else IMAGE_COMPONENTS[:3]
 
 
 @dataclass

@@ -554,9 +554,9 @@ class Settings(_ArrayEq):
     # beams spread over the sun's disk, built once for its centre (False: a direction drawn
     # in the disk per pass, the average doing the spreading)
     sun_disk_blur: bool = True
-    # Raman scattering by water of the refracted sun's beams into longer-wavelength bands
-    # (photic.inelastic; hybrid integrator only, off by default while paths do not carry it)
-    raman: bool = False
+    # Raman scattering by water into longer-wavelength bands (photic.inelastic): true, false,
+    # or "auto": on where the scene's bands can receive it (inelastic.raman_auto)
+    raman: bool | str = "auto"
     target_error: float | None = None  # relative standard error at which radiometers stop
     noise_threshold: float | None = None  # relative standard error at which pixels stop
     adaptive_min_samples: int = 16     # samples per pixel before a pixel may stop

@@ -153,7 +153,8 @@ def scene_warnings(s: Scene) -> list[str]:
             if float(c.position[2]) < floor:
                 out.append(f"camera '{c.name}': position z = {float(c.position[2]):g} m is below the "
                            f"sea floor (z = {floor:g} m): it sees nothing")
-    if getattr(s.settings, "raman", False):
+    from ..inelastic import raman_active
+    if raman_active(s):
         out += _raman_warnings(s)
     return out
 
@@ -169,6 +170,14 @@ def _raman_warnings(s: Scene) -> list[str]:
                        f"yet: none from it")
     coupling = raman_coupling(s.bands)
     coverage = raman_coverage(s.bands)
+    if s.settings.raman == "auto":  # (on by default: one line, not one per band)
+        short = [f"'{b.name}' {'none' if not coupling[j].any() else f'{100 * coverage[j]:.0f} %'}"
+                 for j, b in enumerate(s.bands) if coverage[j] < 0.9]
+        if short:
+            out.append(f"settings.raman (auto: on): Raman light comes from excitation 60-100 nm bluer than each "
+                       f"band; the scene's bands hold this share of it: {', '.join(short)} (add bands there "
+                       f"to see all of it, or set settings.raman to false for purely elastic light)")
+        return out
     for j, b in enumerate(s.bands):
         lo = 1e7 / (1e7 / (b.center_nm - 0.5 * b.width_nm) + RAMAN_SHIFT_CM + RAMAN_FWHM_CM)
         hi = 1e7 / (1e7 / (b.center_nm + 0.5 * b.width_nm) + RAMAN_SHIFT_CM - RAMAN_FWHM_CM)
@@ -848,9 +857,10 @@ def _validate_settings(s: Settings) -> None:
         check_parameter("settings", f"settings.{key}", getattr(s, key))
     if s.forward_cone_deg != "auto":
         check_parameter("settings", "settings.forward_cone_deg", s.forward_cone_deg)
-    for key in ("sun_disk_blur", "raman"):
-        if not isinstance(getattr(s, key), (bool, np.bool_)):
-            raise SceneError("settings", key, f"must be true or false, got {_show(getattr(s, key))}")
+    if not isinstance(s.sun_disk_blur, (bool, np.bool_)):
+        raise SceneError("settings", "sun_disk_blur", f"must be true or false, got {_show(s.sun_disk_blur)}")
+    if not (isinstance(s.raman, (bool, np.bool_)) or s.raman == "auto"):
+        raise SceneError("settings", "raman", f"must be true, false or \"auto\", got {_show(s.raman)}")
     for key in ("target_error", "noise_threshold"):
         if getattr(s, key) is not None:
             check_parameter("settings", f"settings.{key}", getattr(s, key))

@@ -151,7 +151,7 @@ def _scene_to_dict(s: Scene) -> dict:
                      "forward_cone_deg": s.settings.forward_cone_deg,
                      "beam_max_level": int(s.settings.beam_max_level),
                      "sun_disk_blur": bool(s.settings.sun_disk_blur),
-                     **({"raman": True} if s.settings.raman else {}),
+                     **({"raman": bool(s.settings.raman)} if s.settings.raman != "auto" else {}),
                      **({} if s.settings.target_error is None else
                         {"target_error": float(s.settings.target_error)}),
                      **({} if s.settings.noise_threshold is None else
