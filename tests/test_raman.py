@@ -323,3 +323,31 @@ def test_raman_radiance_in_layered_water_matches_its_closed_form():
     expect = inelastic.raman_phase(1.0) * m[1, 0] * np.trapz(e450 * up, zs)
     value, se = float(r.mean[0, 1]), float(r.stderr[0, 1])
     assert abs(value - expect) < 3.5 * se + 2e-5 * expect, (value, se, expect)
+
+
+@pytest.mark.parametrize("integrator", ["path", "hybrid"])
+def test_raman_in_gridded_water_matches_its_closed_form(integrator):
+    """Gridded water (a 3-D grid of an absorbing field over the clear base, its density the
+    same everywhere, down to 3 km): the grid's walks carry the Raman light (a deferred beam
+    term's, and the paths' Raman collisions, whose absorption is a walk of their own) and
+    b_R is the base's loss; the closed forms are the homogeneous ones with the summed
+    absorption."""
+    d = _sky_sea(integrator).to_dict()
+    water = d["water"][0]
+    base = water.pop("iops")
+    unit = {"absorption": [0.01, 0.02], "b": [0.0, 0.0], "phase": {"type": "isotropic"}}
+    water["iop_grid"] = {"base": {"iops": base}, "unit": {"iops": unit}, "origin": [-5000.0, -5000.0, -3000.0],
+                         "size": [10000.0, 10000.0, 3001.0], "density": np.full((2, 2, 3), 0.5).tolist()}
+    c = np.asarray(SKY_A) + 0.5 * np.asarray(unit["absorption"]) + inelastic.raman_b([b.center_nm for b in BANDS])
+
+    def tau(k):
+        return lambda z0, z1: c[k] * (z1 - z0)
+    cap = np.radians(2.0)
+    expect = _sky_raman_nadir_radiance(tau(0), tau(1), 1.0, 1.0)
+    if integrator == "hybrid":
+        expect += _sun_raman_radiance_in_cap(tau(0), tau(1), 1.0, cap)
+    r = render(Scene.from_dict(d), radiometer_samples=4_000_000, seed=12, threads=2).radiometers[0]
+    value, se = float(r.mean[0, 1]), float(r.stderr[0, 1])
+    assert value == pytest.approx(float(r.components["raman"][0][0, 1]))
+    assert se < 0.02 * value, (value, se)
+    assert abs(value - expect) < 3.5 * se + 2e-3 * expect, (value, se, expect)

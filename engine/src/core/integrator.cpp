@@ -240,7 +240,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
     int depth = 0;
     c.paths++;
     thread_local WaterLayer grid_local_tls;  // a grid's coefficients at the current collision (reused)
-    MediumWalk walk(nb, &grid_local_tls);     // (the thread-local address looked up once per path)
+    MediumWalk walk(nb, &grid_local_tls, &out.raman);  // (the thread-local address looked up once per path)
     const double cone_x = 1.0 - std::cos(cone_half_angle);
     // The reflected beams in the air count the sun that reaches a point in the air by one
     // reflection on the water: from a vertex where they were looked up (1), a path that
@@ -296,10 +296,14 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                     }
                 } else {  // gridded water: the walk attenuates it, added when the walk passes it
                     settle_beam_terms(terms, &out);
-                    Spectrum I, contribution;
-                    beam_scatter_along(o, d, t_hit, medium, rng, &I, walk.beam_point());
-                    for (int kb = 0; kb < nb; ++kb) contribution.v[kb] = bv_weight * beta.v[kb] * walk.absorbed(w, kb) * I.v[kb];
-                    walk.add_beam(contribution, &out.beam_volume);
+                    Spectrum I, R, contribution, raman;
+                    beam_scatter_along(o, d, t_hit, medium, rng, &I, walk.beam_point(), &R);
+                    for (int kb = 0; kb < nb; ++kb) {
+                        const double f = bv_weight * beta.v[kb] * walk.absorbed(w, kb);
+                        contribution.v[kb] = f * I.v[kb];
+                        raman.v[kb] = f * R.v[kb];
+                    }
+                    walk.add_beam(contribution, raman, &out.beam_volume);
                 }
             }
             bv_weight = 1.0;
@@ -366,7 +370,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 // A Raman collision: the path goes on as the light that excites its bands,
                 // beta_i = sum_k beta_k raman[k][i] / (rate p), in a direction drawn from the
                 // Raman phase function; everything it finds from here on is Raman light.
-                walk.leave_at(t_raman, t_cur);
+                walk.leave_at(t_raman, t_cur, &out.beam_volume);
                 walk.flush(w, &beta);
                 if (terms.inelastic) {
                     fold_inelastic(terms, &out);

@@ -316,8 +316,9 @@ private:
 // The integrator calls the same few methods whatever the water's kind.
 class MediumWalk {
 public:
-    // scratch: a grid's coefficients at the current collision (reused: one per thread).
-    MediumWalk(int nb, WaterLayer* scratch) : nb_(nb), scratch_(scratch) {}
+    // scratch: a grid's coefficients at the current collision (reused: one per thread);
+    // raman: where a deferred beam term's Raman light goes (the path's raman component).
+    MediumWalk(int nb, WaterLayer* scratch, Spectrum* raman) : nb_(nb), scratch_(scratch), raman_out_(raman) {}
 
     // ---- The path's absorption not yet carried by its throughput ----
     double absorbed(const Water& w, int k) const {  // the factor, band k
@@ -380,12 +381,17 @@ public:
     // A beam term along the segment at a point the walk has yet to pass (gridded water: its
     // attenuation comes from the walk) is written here by the beam code; null: none waits.
     double* beam_point() { return w_->grid ? &t_beam_ : nullptr; }
-    // The beam term's contribution (before the attenuation to its point, where deferred):
-    // added to *volume now, or by settle() when the walk has passed its point.
-    void add_beam(const Spectrum& contribution, Spectrum* volume) {
-        if (w_->grid) beam_wait_ = contribution;
-        else
+    // The beam term's contribution and its Raman light (before the attenuation to its point,
+    // where deferred): added to *volume (and the raman component) now, or by settle() when the
+    // walk has passed its point.
+    void add_beam(const Spectrum& contribution, const Spectrum& raman, Spectrum* volume) {
+        if (w_->grid) {
+            beam_wait_ = contribution;
+            raman_wait_ = raman;
+        } else {
             for (int k = 0; k < nb_; ++k) volume->v[k] += contribution.v[k];
+            for (int k = 0; k < nb_; ++k) raman_out_->v[k] += raman.v[k];
+        }
     }
     // The distance to the first tentative collision, after the ray is cast (t_hit: where it
     // ends, clipped: cast only to the clip distance; rest(t) casts the rest from t on and
@@ -412,11 +418,22 @@ public:
         return *L_;
     }
     // The path leaves the segment at t by a collision of its own process (Raman scattering,
-    // independent of the walk's), the walk's last tentative collision at t_cur: the
-    // absorption travelled up to t. (Not in gridded water: it has no Raman collisions.)
-    void leave_at(double t, double t_cur) {
-        if (w_->stratified()) travel(t);
-        else pending_ += t - t_cur;
+    // independent of the walk's), the walk's last tentative collision at t_cur: the waiting
+    // beam term and the absorption travelled up to t. A grid's walk may have gone on beyond t
+    // (to its next tentative collision), so its integral to t is a walk of its own (rare:
+    // once per Raman collision).
+    void leave_at(double t, double t_cur, Spectrum* volume) {
+        if (w_->grid) {
+            settle(kInf, volume);
+            double r[VoxelGrid::kMaxFields];
+            const Vec3 x = o_ + d_ * t;
+            w_->grid->integral(o_, x, t, r);
+            w_->grid_absorption(o_.z, x.z, t, r, nb_, &tau_a_);
+        } else if (w_->stratified()) {
+            travel(t);
+        } else {
+            pending_ += t - t_cur;
+        }
     }
     // The path scatters at the last collision t: the waiting beam term and the absorption up
     // to t settled; the coefficients there with each component's b_path.
@@ -484,6 +501,7 @@ private:
             double att[kMaxBands];
             w.grid_transmittance(o_.z, o_.z + d_.z * t_beam_, t_beam_, r_beam_, nb_, att);
             for (int kb = 0; kb < nb_; ++kb) volume->v[kb] += beam_wait_.v[kb] * att[kb];
+            for (int kb = 0; kb < nb_; ++kb) raman_out_->v[kb] += raman_wait_.v[kb] * att[kb];
             t_beam_ = -1.0;
         }
         if (end) w.grid_absorption(o_.z, o_.z + d_.z * t_end, t_end, r_end, nb_, &tau_a_);
@@ -491,6 +509,7 @@ private:
 
     const int nb_;
     WaterLayer* scratch_;
+    Spectrum* raman_out_;
     // The path's absorption since its throughput last carried it: `pending_` metres in
     // homogeneous water (factor exp(-a s)), or the optical depth tau_a_ per band in layered or
     // gridded water, added exactly segment by segment (factor exp(-tau_a)).
@@ -507,7 +526,7 @@ private:
     double grho_[VoxelGrid::kMaxFields] = {};  // a grid's densities at the collision
     double t_beam_ = -1.0, r_beam_[VoxelGrid::kMaxFields] = {};
     bool beam_read_ = false;
-    Spectrum beam_wait_;
+    Spectrum beam_wait_, raman_wait_;
 };
 
 }  // namespace photic

@@ -156,7 +156,6 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
         # A grid adds density x unit IOPs to its base: homogeneous IOPs or a depth profile.
         grid = w.iops if isinstance(w.iops, IOPGrid) else None
         base = grid.iops if grid is not None else w.iops
-        w_loss = loss if grid is None else sel  # (gridded water: no Raman yet, neither way)
         layers = base.layers if isinstance(base, IOPProfile) else [base]
         comps = []
         for comp in layers[0].scattering:
@@ -164,11 +163,11 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
             comps.append((pid, sel(comp.b)))
         if not comps:  # no scattering component: a purely absorbing body
             comps.append((core.add_phase(make_core_phase("isotropic")), np.zeros(nb)))
-        wi = core.add_water(float(w.ior), w_loss(layers[0].absorption), comps)
+        wi = core.add_water(float(w.ior), loss(layers[0].absorption), comps)
         for z_top, layer in zip(np.asarray(base.z_top)[1:] if len(layers) > 1 else [], layers[1:]):
             b = [sel(c.b) for c in layer.scattering] or [np.zeros(nb)]
-            core.add_water_layer(wi, float(z_top), w_loss(layer.absorption), b)
-        if raman is not None and grid is None:  # (gridded water: not yet, scene_warnings says)
+            core.add_water_layer(wi, float(z_top), loss(layer.absorption), b)
+        if raman is not None:  # (the water's own: in the base, whatever a grid adds)
             core.set_water_raman(wi, raman[1], RAMAN_RHO)
         if grid is not None:  # 3-D IOPs: base + each field's density x its unit over the box
             origin = np.asarray(grid.origin, dtype=np.float64)

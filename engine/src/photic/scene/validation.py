@@ -160,14 +160,10 @@ def scene_warnings(s: Scene) -> list[str]:
 
 
 def _raman_warnings(s: Scene) -> list[str]:
-    """What Raman scattering (settings.raman) cannot give this scene: gridded water,
-    excitation outside the bands."""
+    """What Raman scattering (settings.raman) cannot give this scene: excitation outside the
+    bands."""
     from ..inelastic import RAMAN_FWHM_CM, RAMAN_SHIFT_CM, raman_coupling, raman_coverage
     out = []
-    for w in s.water:
-        if isinstance(w.iops, IOPGrid):
-            out.append(f"water '{w.name}': Raman scattering is not computed in gridded water (iop_grid) "
-                       f"yet: none from it")
     coupling = raman_coupling(s.bands)
     coverage = raman_coverage(s.bands)
     if s.settings.raman == "auto":  # (on by default: one line, not one per band)
