@@ -141,7 +141,7 @@ def _fresnel_in(mu_w):
     return 1.0 - 0.5 * (rs + rp)
 
 
-def _sky_raman_nadir_radiance(tau450, tau531, depth, sky):
+def _sky_raman_nadir_radiance(tau450, tau531, depth, sky, phase=inelastic.raman_phase, m_of_z=None):
     """The nadir radiance (light going straight up) in band 531 at `depth` below a flat
     surface under a uniform sky of radiance `sky` in band 450 only, in water that does not
     scatter elastically: band 450's light comes down inside Snell's window with radiance
@@ -149,15 +149,16 @@ def _sky_raman_nadir_radiance(tau450, tau531, depth, sky):
     back), is Raman-scattered at every depth z below, and comes up attenuated by
     tau531(depth, z): L = M[531, 450] int_depth^inf int_window p_R(mu) n^2 T(mu) sky
     exp(-tau450(0, z) / mu) exp(-tau531(depth, z)) 2 pi dmu dz. tau*(z0, z1): the optical
-    depth (a + b_R) between two depths, vectorised."""
+    depth (a + b_R) between two depths, vectorised. Another process: its phase function and
+    coupling M(z) (a function of depth)."""
     mu_c = np.sqrt(1.0 - 1.0 / IOR ** 2)
     mu = np.linspace(mu_c, 1.0, 801)[:, None]
     z = np.unique(np.concatenate([np.linspace(depth, depth + 2.0, 2_001), np.geomspace(depth + 2.0, 3e4, 8_001)]))
     z = z[None, :]
     down = IOR ** 2 * _fresnel_in(mu) * sky * np.exp(-tau450(0.0, z) / mu)
-    source = 2 * np.pi * np.trapz(inelastic.raman_phase(mu) * down, mu[:, 0], axis=0)
-    m = inelastic.raman_coupling(BANDS)
-    return m[1, 0] * np.trapz(source * np.exp(-tau531(depth, z[0])), z[0])
+    source = 2 * np.pi * np.trapz(phase(mu) * down, mu[:, 0], axis=0)
+    m = m_of_z(z[0]) if m_of_z is not None else inelastic.raman_coupling(BANDS)[1, 0]
+    return np.trapz(m * source * np.exp(-tau531(depth, z[0])), z[0])
 
 
 SKY_A = [0.005, 0.01]  # clear water: the Raman light of a deep layer (the paths' Raman collisions
@@ -165,15 +166,15 @@ SKY_A = [0.005, 0.01]  # clear water: the Raman light of a deep layer (the paths
 SKY_TOP, SKY_LOW = [0.02, 0.04], [0.004, 0.008]
 
 
-def _sun_raman_radiance_in_cap(tau450, tau531, depth, cap):
+def _sun_raman_radiance_in_cap(tau450, tau531, depth, cap, phase=inelastic.raman_phase, m_of_z=None):
     """The same radiance from a sun at the zenith (irradiance 1 in band 450), averaged over a
     cap of half-angle `cap` around the nadir: p_R(mu) M T0 int exp(-tau450(0, z))
     exp(-tau531(depth, z) / mu) dz / mu."""
     mu = np.linspace(np.cos(cap), 1.0, 201)[:, None]
     z = np.unique(np.concatenate([np.linspace(depth, depth + 2.0, 2_001), np.geomspace(depth + 2.0, 3e4, 8_001)]))
-    up = np.exp(-tau450(0.0, z)[None, :] - tau531(depth, z)[None, :] / mu) / mu
-    m = inelastic.raman_coupling(BANDS)
-    radiance = inelastic.raman_phase(mu[:, 0]) * m[1, 0] * T * np.trapz(up, z, axis=1)
+    m = m_of_z(z) if m_of_z is not None else inelastic.raman_coupling(BANDS)[1, 0]
+    up = m * np.exp(-tau450(0.0, z)[None, :] - tau531(depth, z)[None, :] / mu) / mu
+    radiance = phase(mu[:, 0]) * T * np.trapz(up, z, axis=1)
     return np.trapz(radiance, mu[:, 0]) / (1.0 - np.cos(cap))
 
 
@@ -194,7 +195,7 @@ def _sky_sea(integrator, layered=False):
 
 @pytest.mark.parametrize("integrator", ["path", "hybrid"])
 @pytest.mark.parametrize("layered", [False, True], ids=["homogeneous", "layered"])
-def test_raman_of_skylight_matches_its_closed_form(integrator, layered):
+def test_raman_of_skylight_matches_its_closed_form(zscore, integrator, layered):
     """Skylight, which no beam carries: the paths' own Raman collisions (both integrators)
     against the closed form of single Raman scattering of the refracted sky, in homogeneous
     water and in two layers (clearer below 2 m); the hybrid with the sun at the zenith too,
@@ -219,6 +220,7 @@ def test_raman_of_skylight_matches_its_closed_form(integrator, layered):
     value, se = float(r.mean[0, 1]), float(r.stderr[0, 1])
     assert value == pytest.approx(float(r.components["raman"][0][0, 1]))  # all of it Raman light
     assert se < 0.015 * value, (value, se)
+    zscore(f"Raman Lu 531, sky ({integrator}, {'layers' if layered else 'homogeneous'})", value, expect, se)
     assert abs(value - expect) < 3.5 * se + 2e-3 * expect, (value, se, expect, cap)
 
 
@@ -326,7 +328,7 @@ def test_raman_radiance_in_layered_water_matches_its_closed_form():
 
 
 @pytest.mark.parametrize("integrator", ["path", "hybrid"])
-def test_raman_in_gridded_water_matches_its_closed_form(integrator):
+def test_raman_in_gridded_water_matches_its_closed_form(zscore, integrator):
     """Gridded water (a 3-D grid of an absorbing field over the clear base, its density the
     same everywhere, down to 3 km): the grid's walks carry the Raman light (a deferred beam
     term's, and the paths' Raman collisions, whose absorption is a walk of their own) and
@@ -350,4 +352,5 @@ def test_raman_in_gridded_water_matches_its_closed_form(integrator):
     value, se = float(r.mean[0, 1]), float(r.stderr[0, 1])
     assert value == pytest.approx(float(r.components["raman"][0][0, 1]))
     assert se < 0.02 * value, (value, se)
+    zscore(f"Raman Lu 531, grid ({integrator})", value, expect, se)
     assert abs(value - expect) < 3.5 * se + 2e-3 * expect, (value, se, expect)

@@ -18,6 +18,8 @@ namespace photic {
 
 namespace {
 
+constexpr double kShiftMin = 0.1;  // the least probability of an inelastic collision's event
+
 Vec3 cosine_hemisphere(const Vec3& n, double u1, double u2) {
     // 1 - cos(theta) = 1 - sqrt(1 - u1)
     double mu = std::sqrt(1.0 - u1);
@@ -33,14 +35,14 @@ double max_component(const Spectrum& s, int nb) {
 }  // namespace
 
 void Scene::beam_scatter_along(const Vec3& o, const Vec3& d, double T, int medium, Rng& rng,
-                               Spectrum* out, double* deferred_t, Spectrum* raman) const {
+                               Spectrum* out, double* deferred_t, Spectrum* inelastic) const {
     *out = Spectrum();
-    if (raman) *raman = Spectrum();
+    if (inelastic) std::fill_n(inelastic, kInelasticKinds, Spectrum());
     double t, pdf;
     if (!beam_scatter_point(waters[medium], d, T, rng, &t, &pdf)) return;
     thread_local BeamSample beams[kMaxBeams];  // per thread: zeroing 64 spectra per call costs
     const int n = beams_at(o + d * t, medium, beams, kMaxBeams);
-    beam_scatter_sum(o, d, t, pdf, medium, beams, n, out, deferred_t, raman);
+    beam_scatter_sum(o, d, t, pdf, medium, beams, n, out, deferred_t, inelastic);
 }
 
 bool Scene::beam_scatter_point(const Water& w, const Vec3& d, double T, Rng& rng, double* t_out,
@@ -49,34 +51,49 @@ bool Scene::beam_scatter_point(const Water& w, const Vec3& d, double T, Rng& rng
     // from o: int exp(-c t) sum_beams b p(psi) E dt, estimated with one distance drawn with
     // pdf proportional to exp(-k t), where k follows the integrand: attenuation back to o (c)
     // and the beams growing towards the surface (c_beam per metre of beam path, which changes
-    // by -d_z / mu_w per metre along the segment).
+    // by -d_z / mu_w per metre along the segment). The bands' c differ (the red's water
+    // absorption is 10-100 times the blue's): drawn at the bands' mean c alone, a band far
+    // below it would get weights growing as exp((c_mean - c) t), an infinite variance where
+    // c < c_mean / 2; so half the draws take the smallest c (a defensive mixture: every
+    // band's weight stays bounded).
     if (!(w.c_path_mean > 0.0) || !(T > 0.0)) return false;
-    double k = w.c_path_mean * (1.0 - d.z / beam_mu_w);
-    bool finite = T < kInf;
-    if (!finite && k < 0.5 * w.c_path_mean) k = 0.5 * w.c_path_mean;
-    double u = rng.uniform();
-    double t, pdf;
-    if (finite && std::fabs(k) * T < 1e-6) {
-        t = u * T;
-        pdf = 1.0 / T;
-    } else {
-        double ak = std::fabs(k);
-        double norm = finite ? -std::expm1(-ak * T) : 1.0;
-        double s_ = -std::log1p(-u * norm) / ak;  // from the start (k > 0) or from the end
-        t = k > 0 ? s_ : T - s_;
-        pdf = ak * std::exp(-ak * s_) / norm;
+    const bool finite = T < kInf;
+    auto rate = [&](double c) {
+        double k = c * (1.0 - d.z / beam_mu_w);
+        return !finite && k < 0.5 * c ? 0.5 * c : k;
+    };
+    auto norm = [&](double k) { return finite ? -std::expm1(-std::fabs(k) * T) : 1.0; };
+    auto uniform = [&](double k) { return finite && std::fabs(k) * T < 1e-6; };
+    auto sample = [&](double k, double u) {
+        if (uniform(k)) return u * T;
+        const double s_ = -std::log1p(-u * norm(k)) / std::fabs(k);  // from the start (k > 0) or from the end
+        return k > 0 ? s_ : T - s_;
+    };
+    auto pdf = [&](double k, double t) {
+        if (uniform(k)) return 1.0 / T;
+        const double s_ = k > 0 ? t : T - t;
+        return std::fabs(k) * std::exp(-std::fabs(k) * s_) / norm(k);
+    };
+    const double k1 = rate(w.c_path_mean);
+    const bool mix = w.c_beam_min > 0.0 && w.c_beam_min < 0.999 * w.c_path_mean;
+    if (!mix) {
+        *t_out = sample(k1, rng.uniform());
+        *pdf_out = pdf(k1, *t_out);
+        return true;
     }
-    *t_out = t;
-    *pdf_out = pdf;
+    const double k0 = rate(w.c_beam_min);
+    const bool low = rng.uniform() < 0.5;
+    *t_out = sample(low ? k0 : k1, rng.uniform());
+    *pdf_out = 0.5 * (pdf(k0, *t_out) + pdf(k1, *t_out));
     return true;
 }
 
 void Scene::beam_scatter_sum(const Vec3& o, const Vec3& d, double t, double pdf, int medium,
                              const BeamSample* beams, int n, Spectrum* out, double* deferred_t,
-                             Spectrum* raman) const {
+                             Spectrum* inelastic) const {
     const Water& w = waters[medium];
     *out = Spectrum();
-    if (raman) *raman = Spectrum();
+    if (inelastic) std::fill_n(inelastic, kInelasticKinds, Spectrum());
     if (n == 0) return;
     const Vec3 x = o + d * t;
     // The local scattering at x and the attenuation back to o (through the layers or voxels
@@ -92,18 +109,21 @@ void Scene::beam_scatter_sum(const Vec3& o, const Vec3& d, double t, double pdf,
     const double cone_x = 1.0 - std::cos(cone_half_angle);
     const size_t nc = w.components.size();
     const bool spread_phase = beam_phase_spread();
-    const bool inelastic = raman && !w.raman.empty();
+    const bool shifts = inelastic && !w.inelastic.empty();
+    const int layer = shifts ? int(local.base - w.layers.data()) : 0;
     for (int j = 0; j < n; ++j) {
         double xs = std::max(0.0, 1.0 + dot(beams[j].d, d));  // 1 - cos(psi)
-        if (inelastic) {  // (Raman light leaves the beam's band: no forward cone for it)
-            const double p = w.raman_phase(1.0 - xs);
-            for (int kb = 0; kb < nbands; ++kb) {
-                double r = 0.0;
-                for (int ki = w.raman_from[kb]; ki < w.raman_to[kb]; ++ki)
-                    r += w.raman[size_t(kb) * nbands + ki] * beams[j].e.v[ki];
-                raman->v[kb] += att[kb] * p * r / pdf;
+        if (shifts)  // (inelastic light leaves the beam's band: no forward cone for it)
+            for (const Inelastic& P : w.inelastic) {
+                const double p = P.phase(1.0 - xs);
+                const double* m = P.at(layer);
+                Spectrum& into = inelastic[P.kind];
+                for (int kb = 0; kb < nbands; ++kb) {
+                    double r = 0.0;
+                    for (int ki = P.from[kb]; ki < P.to[kb]; ++ki) r += m[size_t(kb) * nbands + ki] * beams[j].e.v[ki];
+                    into.v[kb] += att[kb] * p * r / pdf;
+                }
             }
-        }
         double pv[16];
         if (beams[j].spread && spread_phase) {  // (the cone is in the disk's mean)
             for (size_t ci = 0; ci < nc; ++ci) pv[ci] = beam_phase(w.components[ci].phase, xs);
@@ -195,21 +215,21 @@ void Scene::settle_beam_terms(BeamTerms& b, Components* out) const {
         const Vec3 x = point(e);
         int n = flat_beams_at(x, e.medium, beams, kMaxBeams, true);
         n = eval_candidates(prisms, found.data() + first[i], first[i + 1] - first[i], x, beams, n, kMaxBeams, true);
-        Spectrum I, R;
-        beam_scatter_sum(vec(e.o), vec(e.d), e.t, e.pdf, e.medium, beams, n, &I, nullptr, &R);
-        for (int k = 0; k < nbands; ++k) {
-            out->beam_volume.v[k] += e.weight[k] * I.v[k] / e.den;
-            out->raman.v[k] += e.weight[k] * R.v[k] / e.den;
-        }
+        Spectrum I, R[kInelasticKinds];
+        beam_scatter_sum(vec(e.o), vec(e.d), e.t, e.pdf, e.medium, beams, n, &I, nullptr, R);
+        for (int k = 0; k < nbands; ++k) out->beam_volume.v[k] += e.weight[k] * I.v[k] / e.den;
+        for (int c = 0; c < kInelasticKinds; ++c)
+            for (int k = 0; k < nbands; ++k) out->inelastic[c].v[k] += e.weight[k] * R[c].v[k] / e.den;
     }
     b.n = 0;
 }
 
 Components Scene::trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
-                        Counters& c, double first_beam_weight, bool camera, bool reflect_covered) const {
+                        Counters& c, double first_beam_weight, bool camera, bool reflect_covered,
+                        bool branch_inelastic) const {
     BeamTerms terms;
     Components out = trace_path(o, d, medium, sun_covered, beam_covered, rng, c, first_beam_weight, camera,
-                                reflect_covered, terms);
+                                reflect_covered, terms, branch_inelastic);
     if (terms.inelastic) fold_inelastic(terms, &out);
     else settle_beam_terms(terms, &out);
     return out;
@@ -220,27 +240,68 @@ void Scene::fold_inelastic(BeamTerms& t, Components* out) const {
     const int nb = nbands;
     const Components& b = t.before;
     double found[kMaxBands];
-    for (int i = 0; i < nb; ++i)
+    for (int i = 0; i < nb; ++i) {
         found[i] = out->path.v[i] - b.path.v[i] + out->beam_surface.v[i] - b.beam_surface.v[i] +
-                   out->beam_volume.v[i] - b.beam_volume.v[i] + out->raman.v[i] - b.raman.v[i];
-    Spectrum raman = b.raman;
+                   out->beam_volume.v[i] - b.beam_volume.v[i];
+        for (int c = 0; c < kInelasticKinds; ++c) found[i] += out->inelastic[c].v[i] - b.inelastic[c].v[i];
+    }
+    Spectrum into = b.inelastic[t.kind];
     for (int k = 0; k < nb; ++k)
-        for (int i = 0; i < nb; ++i) raman.v[k] += t.share[k * nb + i] * found[i];
+        for (int i = 0; i < nb; ++i) into.v[k] += t.share[k * nb + i] * found[i];
     *out = b;
-    out->raman = raman;
+    out->inelastic[t.kind] = into;
     t.before = *out;
+}
+
+void Scene::inelastic_branch(const Vec3& o, const Vec3& d, double T, int medium, const double* weight, Rng& rng,
+                             Counters& c, bool camera, Components* out) const {
+    const Water& w = waters[medium];
+    const int nb = nbands;
+    double t, pdf;
+    if (!beam_scatter_point(w, d, T, rng, &t, &pdf)) return;
+    const Vec3 x = o + d * t;
+    double att[kMaxBands];
+    w.transmittance(o, x, t, nb, att);
+    const int layer = w.layer_index(x.z);
+    double g[kInelasticKinds] = {}, total = 0.0;
+    for (size_t pi = 0; pi < w.inelastic.size(); ++pi) {
+        const Spectrum& in = w.inelastic[pi].in_at(layer);
+        for (int k = 0; k < nb; ++k) g[pi] += weight[k] * att[k] * in.v[k];
+        total += g[pi];
+    }
+    if (!(total > 0.0)) return;
+    double u = rng.uniform() * total;
+    size_t pick = 0;
+    while (pick + 1 < w.inelastic.size() && u >= g[pick]) u -= g[pick++];
+    const Inelastic& P = w.inelastic[pick];
+    if (!(g[pick] > 0.0)) return;
+    // The branch: the light arriving at x along the direction drawn (its phase function's
+    // weight is 1), with the beams' direct light at x left to the segment's beam term.
+    const Components L = trace(x, P.sample_direction(d, rng), medium, false, hybrid, rng, c, 1.0, camera, false, false);
+    double found[kMaxBands];
+    for (int i = 0; i < nb; ++i) {
+        found[i] = L.path.v[i] + L.beam_surface.v[i] + L.beam_volume.v[i];
+        for (int ci = 0; ci < kInelasticKinds; ++ci) found[i] += L.inelastic[ci].v[i];
+    }
+    const double* m = P.at(layer);
+    const double scale = total / (g[pick] * pdf);
+    for (int k = 0; k < nb; ++k) {
+        double r = 0.0;
+        for (int i = P.from[k]; i < P.to[k]; ++i) r += m[size_t(k) * nb + i] * found[i];
+        out->inelastic[P.kind].v[k] += weight[k] * att[k] * r * scale;
+    }
 }
 
 Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
                              Counters& c, double first_beam_weight, bool camera, bool reflect_covered,
-                             BeamTerms& terms) const {
+                             BeamTerms& terms, bool branch_inelastic) const {
     const int nb = nbands;
     Components out;
     Spectrum beta = Spectrum::constant(1.0);
     int depth = 0;
     c.paths++;
     thread_local WaterLayer grid_local_tls;  // a grid's coefficients at the current collision (reused)
-    MediumWalk walk(nb, &grid_local_tls, &out.raman);  // (the thread-local address looked up once per path)
+    MediumWalk walk(nb, &grid_local_tls, out.inelastic);  // (the thread-local address looked up once per path)
     const double cone_x = 1.0 - std::cos(cone_half_angle);
     // The reflected beams in the air count the sun that reaches a point in the air by one
     // reflection on the water: from a vertex where they were looked up (1), a path that
@@ -278,9 +339,28 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 if (h.valid) h.t += t;
                 t_hit = h.valid ? h.t : kInf;
             };
+            // The inelastic light along the segment, where the path's bands can gain any: until
+            // the path has made a branch (inelastic_branch), each such segment makes one with
+            // probability inelastic_split (its weight over that) or leaves it out (Russian
+            // roulette: unbiased); after it, the path's own inelastic collisions count it. (The
+            // collisions alone meet the source at its rate, 1e-5 to 1e-3 per metre, each with
+            // a weight of order 1: rare, huge samples. A branch draws a point on every segment
+            // it serves, the weight the source's share: at most one per path keeps the cost
+            // at most twice.)
+            bool branch = false, roulette = false;
+            if (branch_inelastic && w.inelastic_rate > 0.0) {
+                double gain = 0.0;
+                for (const Inelastic& P : w.inelastic)
+                    for (int k = 0; k < nb; ++k) gain += beta.v[k] * P.in_max.v[k];
+                if (gain > 0.0) {
+                    roulette = true;
+                    branch = rng.uniform() < w.inelastic_split;
+                    if (branch) branch_inelastic = false;
+                }
+            }
             // Path tracing casts the ray only up to the first tentative collision (the
-            // medium's bound for it); the beam terms need the whole length.
-            const bool short_ray = !hybrid && walk.can_clip();
+            // medium's bound for it); the beam terms and a branch need the whole length.
+            const bool short_ray = !hybrid && walk.can_clip() && !branch;
             t_hit = kInf;
             const double t_cast = walk.before_cast(rng, short_ray);
             h = intersect(o, d, t_cast, ocean_side(medium));
@@ -296,49 +376,81 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                     }
                 } else {  // gridded water: the walk attenuates it, added when the walk passes it
                     settle_beam_terms(terms, &out);
-                    Spectrum I, R, contribution, raman;
-                    beam_scatter_along(o, d, t_hit, medium, rng, &I, walk.beam_point(), &R);
+                    Spectrum I, R[kInelasticKinds], contribution;
+                    beam_scatter_along(o, d, t_hit, medium, rng, &I, walk.beam_point(), R);
                     for (int kb = 0; kb < nb; ++kb) {
                         const double f = bv_weight * beta.v[kb] * walk.absorbed(w, kb);
                         contribution.v[kb] = f * I.v[kb];
-                        raman.v[kb] = f * R.v[kb];
+                        for (int c = 0; c < kInelasticKinds; ++c) R[c].v[kb] *= f;
                     }
-                    walk.add_beam(contribution, raman, &out.beam_volume);
+                    walk.add_beam(contribution, R, &out.beam_volume);
                 }
             }
             bv_weight = 1.0;
+            if (branch) {
+                double weight[kMaxBands];
+                for (int k = 0; k < nb; ++k) weight[k] = beta.v[k] * walk.absorbed(w, k) / w.inelastic_split;
+                inelastic_branch(o, d, t_hit, medium, weight, rng, c, camera, &out);
+            }
             double dt = walk.first_flight(rng, t_hit, clipped, intersect_rest);
             const WaterLayer* L = nullptr;  // the coefficients at the tentative collision (walk.collide)
-            // Raman scattering: tentative collisions of its own at the water's uniform rate
-            // raman_rate, independent of the walk's (exponential flights are memoryless, so
-            // neither disturbs the other). Its source, sum_i raman[k][i] L_i, is a gain of band
-            // k, not a loss (that is in the absorption): at such a collision the path scatters
-            // with probability p = q / (1 + q), q the throughput-weighted raman_in / rate, or
-            // goes on with the whole null weight 1 / (1 - p).
-            const double raman_rate = w.raman.empty() ? 0.0 : w.raman_rate;
-            auto raman_flight = [&]() { return raman_rate > 0.0 ? -std::log(1.0 - rng.uniform()) / raman_rate : kInf; };
-            double t_raman = raman_flight();
-            double raman_p = 0.0;  // the chosen collision's p (0: none)
+            // Inelastic scattering (Raman, fluorescence): tentative collisions of its own at the
+            // sum of its processes' rates, independent of the walk's (exponential flights are
+            // memoryless, so neither disturbs the other), each collision a process drawn by its
+            // rate. A source sum_i M[k][i] L_i is a gain of band k, not a loss (that is in the
+            // absorption): at such a collision the path scatters with probability p (about
+            // q / (1 + q), q the throughput-weighted sum_i M[k][i] / rate there) or goes on with
+            // the whole null weight 1 / (1 - p): unbiased whatever p.
+            const double shift_rate = w.inelastic_rate;
+            auto shift_flight = [&]() { return shift_rate > 0.0 ? -std::log(1.0 - rng.uniform()) / shift_rate : kInf; };
+            double t_shift = roulette ? kInf : shift_flight();
+            const Inelastic* shift = nullptr;  // the process of the collision chosen (null: none)
+            int shift_layer = 0;
+            double shift_p = 0.0;
+            if (shift_rate > 0.0) {  // (no process can give this throughput any light: none on this segment)
+                double gain = 0.0;
+                for (const Inelastic& P : w.inelastic)
+                    for (int k = 0; k < nb; ++k) gain += beta.v[k] * P.in_max.v[k];
+                if (!(gain > 0.0)) t_shift = kInf;
+            }
             for (;;) {
                 const double t_next = t_cur + dt;
-                if (t_raman < t_next && t_raman < t_hit) {
+                if (t_shift < t_next && t_shift < t_hit) {
+                    const double z = o.z + d.z * t_shift;
+                    const int layer = w.layer_index(z);
+                    double u = w.inelastic.size() > 1 ? rng.uniform() * shift_rate : 0.0;
+                    const Inelastic* P = &w.inelastic[0];
+                    for (size_t pi = 0; pi + 1 < w.inelastic.size() && u >= P->rate; ++pi, ++P) u -= P->rate;
                     double num = 0.0, den = 0.0;
+                    const Spectrum& in = P->in_at(layer);
                     for (int k = 0; k < nb; ++k) {
-                        num += beta.v[k] * w.raman_in.v[k];
+                        num += beta.v[k] * in.v[k];
                         den += beta.v[k];
                     }
-                    const double q = den > 0.0 ? num / (den * raman_rate) : 0.0;
-                    if (!(q > 0.0)) {  // no band here gains Raman light (and none will on this segment)
-                        t_raman = kInf;
-                        continue;
-                    }
-                    const double p = q / (1.0 + q);
-                    if (rng.uniform() < p) {
-                        raman_p = p;
+                    // (p at least kShiftMin where q > 0: a throughput whose gaining bands have
+                    // become tiny would otherwise go on for ever down an endless segment)
+                    const double q = den > 0.0 ? num / (den * P->rate) : 0.0;
+                    const double p = q > 0.0 ? std::max(kShiftMin, q / (1.0 + q)) : 0.0;
+                    if (q > 0.0 && rng.uniform() < p) {
+                        shift = P;
+                        shift_layer = layer;
+                        shift_p = p;
                         break;
                     }
-                    for (int k = 0; k < nb; ++k) beta.v[k] *= 1.0 + q;
-                    t_raman += raman_flight();
+                    for (int k = 0; k < nb; ++k) beta.v[k] /= 1.0 - p;
+                    // (Where this layer gives no process any gain and the ray never leaves it,
+                    // no later collision can: none on this segment.)
+                    const int last = int(w.layers.size()) - 1;
+                    if ((layer == last && d.z <= 0.0) || (layer == 0 && d.z >= 0.0)) {
+                        double here = 0.0;
+                        for (const Inelastic& Q : w.inelastic)
+                            for (int k = 0; k < nb; ++k) here += beta.v[k] * Q.in_at(layer).v[k];
+                        if (!(here > 0.0)) {
+                            t_shift = kInf;
+                            continue;
+                        }
+                    }
+                    t_shift += shift_flight();
                     continue;
                 }
                 if (!(t_next < t_hit)) break;
@@ -366,27 +478,29 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                 if (clipped) intersect_rest(t_cur);  // a null collision: now find the surface beyond it
                 dt = walk.next_flight(rng, t_cur, t_hit, clipped, intersect_rest);
             }
-            if (raman_p > 0.0) {
-                // A Raman collision: the path goes on as the light that excites its bands,
-                // beta_i = sum_k beta_k raman[k][i] / (rate p), in a direction drawn from the
-                // Raman phase function; everything it finds from here on is Raman light.
-                walk.leave_at(t_raman, t_cur, &out.beam_volume);
+            if (shift) {
+                // An inelastic collision: the path goes on as the light that excites its bands,
+                // beta_i = sum_k beta_k M[k][i] / (rate p), in a direction drawn from the
+                // process's phase function; everything it finds from here on is inelastic light.
+                walk.leave_at(t_shift, t_cur, &out.beam_volume);
                 walk.flush(w, &beta);
                 if (terms.inelastic) {
                     fold_inelastic(terms, &out);
                 } else {
                     settle_beam_terms(terms, &out);
                     terms.inelastic = true;
+                    terms.kind = shift->kind;
                     terms.before = out;
                     for (int k = 0; k < nb * nb; ++k) terms.share[k] = k % (nb + 1) == 0 ? 1.0 : 0.0;
                 }
-                // Band i now carries sum_k beta_k raman[k][i] / (rate p); of what it finds,
-                // band k of the path so far gets the share beta_k raman[k][i] / sum_k' (...).
+                // Band i now carries sum_k beta_k M[k][i] / (rate p); of what it finds, band k
+                // of the path so far gets the share beta_k M[k][i] / sum_k' (...).
+                const double* m = shift->at(shift_layer);
                 Spectrum excite;
                 double a[kMaxBands * kMaxBands] = {};
                 for (int k = 0; k < nb; ++k)
-                    for (int i = w.raman_from[k]; i < w.raman_to[k]; ++i) {
-                        a[k * nb + i] = beta.v[k] * w.raman[size_t(k) * nb + i];
+                    for (int i = shift->from[k]; i < shift->to[k]; ++i) {
+                        a[k * nb + i] = beta.v[k] * m[size_t(k) * nb + i];
                         excite.v[i] += a[k * nb + i];
                     }
                 double share[kMaxBands * kMaxBands] = {};
@@ -394,18 +508,18 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
                     for (int j = 0; j < nb; ++j) {
                         const double s = terms.share[k * nb + j];
                         if (s == 0.0) continue;
-                        for (int i = w.raman_from[j]; i < w.raman_to[j]; ++i)
+                        for (int i = shift->from[j]; i < shift->to[j]; ++i)
                             if (excite.v[i] > 0.0) share[k * nb + i] += s * a[j * nb + i] / excite.v[i];
                     }
                 std::copy_n(share, nb * nb, terms.share);
-                const double scale = 1.0 / (raman_rate * raman_p);
+                const double scale = 1.0 / (shift->rate * shift_p);
                 for (int i = 0; i < nb; ++i) excite.v[i] *= scale;
                 beta = excite;
                 if (++depth > max_depth) return out;
-                o = o + d * t_raman;
-                d = w.sample_raman_direction(d, rng);
+                o = o + d * t_shift;
+                d = shift->sample_direction(d, rng);
                 sun_covered = false;
-                beam_covered = hybrid;  // the beams' Raman light at this point is in the last beam term
+                beam_covered = hybrid;  // the beams' inelastic light at this point is in the last beam term
                 if (depth >= rr_depth) {
                     double q = std::min(0.95, max_component(beta, nb));
                     if (!(rng.uniform() < q)) return out;
@@ -768,10 +882,17 @@ inline void camera_ray(const Camera& cam, double x, double y, Vec3* o, Vec3* d) 
     }
 }
 
+// A sample's total in band k: the sum of its components 1.. (component 0 is the total).
+inline double total_of(const Spectrum* comp, int k) {
+    double tot = 0.0;
+    for (int ci = 1; ci < kNumComponents; ++ci) tot += comp[ci].v[k];
+    return tot;
+}
+
 // Adds one sample's components to the running sums: component 0 is their total.
 inline void accumulate(const Spectrum* comp, int nb, double* s, double* s2) {
     for (int k = 0; k < nb; ++k) {
-        double tot = comp[1].v[k] + comp[2].v[k] + comp[3].v[k] + comp[4].v[k] + comp[5].v[k];
+        double tot = total_of(comp, k);
         s[k] += tot;
         s2[k] += tot * tot;
     }
@@ -820,7 +941,8 @@ void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
                 Vec3 o, d;
                 camera_ray(cam, px + 0.5 + fx, row + 0.5 + fy, &o, &d);
                 Components L = trace(o, d, cam.medium, false, false, rng, cnt, 1.0, true);
-                Spectrum comp[kNumComponents] = {Spectrum(), L.beam_surface, L.beam_volume, L.path, Spectrum(), L.raman};
+                Spectrum comp[kNumComponents] = {Spectrum(), L.beam_surface, L.beam_volume, L.path, Spectrum(),
+                                                 L.inelastic[kRaman], L.inelastic[kChlorophyll]};
                 accumulate(comp, nb, s, s2);
             }
         }
@@ -1006,11 +1128,11 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
             double pa_b = mixture(wb), pb_b = beam_direction_pdf(wat, bd, wb);
             Hit hb = intersect(r.position, wb, kInf, ocean_side(r.medium));
             c.segments++;
-            Spectrum I, R;
-            beam_scatter_along(r.position, wb, hb.valid ? hb.t : kInf, r.medium, rng, &I, nullptr, &R);
+            Spectrum I, R[kInelasticKinds];
+            beam_scatter_along(r.position, wb, hb.valid ? hb.t : kInf, r.medium, rng, &I, nullptr, R);
             for (int k = 0; k < nbands; ++k) {
                 out[2].v[k] += resp * I.v[k] / (pa_b + pb_b);
-                out[5].v[k] += resp * R.v[k] / (pa_b + pb_b);
+                for (int c = 0; c < kInelasticKinds; ++c) out[5 + c].v[k] += resp * R[c].v[k] / (pa_b + pb_b);
             }
         }
     }
@@ -1020,7 +1142,7 @@ void Scene::radiometer_sample(int ri, uint64_t index, const BeamSample* at_senso
         out[1].v[k] = L.beam_surface.v[k] * weight;
         out[2].v[k] += L.beam_volume.v[k] * weight;
         out[3].v[k] = L.path.v[k] * weight;
-        out[5].v[k] += L.raman.v[k] * weight;
+        for (int c = 0; c < kInelasticKinds; ++c) out[5 + c].v[k] += L.inelastic[c].v[k] * weight;
     }
     if (sensor_nee) {
         double s1 = rng.uniform(), s2 = rng.uniform();
@@ -1117,7 +1239,7 @@ void Scene::render_radiometer(int ri, uint64_t start, uint64_t count, int thread
             if (moments) {
                 bins.push_back(bin);
                 for (int k = 0; k < nb; ++k)
-                    totals.push_back(comp[1].v[k] + comp[2].v[k] + comp[3].v[k] + comp[4].v[k] + comp[5].v[k]);
+                    totals.push_back(total_of(comp, k));
             }
         }
         std::copy(local_sum.begin(), local_sum.end(), csum.begin() + chunk * nbins * stride);

@@ -72,6 +72,13 @@ void Water::set_forward_cone(const std::vector<PhaseFunction>& phases, double co
         components[ci].weight = b;
         mis_wsum += b;
     }
+    inelastic_split = 0.0;
+    for (int k = 0; k < nbands; ++k) {
+        double gain = 0.0, b = kInf;
+        for (const Inelastic& P : inelastic) gain += P.in_max.v[k];
+        for (const auto& L : layers) b = std::min(b, L.b_path.v[k]);
+        if (gain > 0.0) inelastic_split = std::max(inelastic_split, std::clamp(gain / (gain + b), 0.01, 0.5));
+    }
     if (grid) set_grid_coefficients(nbands);
 }
 
@@ -79,15 +86,6 @@ void Water::set_forward_cone(const std::vector<PhaseFunction>& phases, double co
 // s0 + sum_f s1[f] rho_f, and the water's bounds (majorant, smallest beam attenuation,
 // beam-scattering rate, MIS weights) widened to every density in the grid.
 // c(x) = c_base + sum_f rho_f c_unit,f with rho_f >= 0 and c_unit,f >= 0.
-Vec3 Water::sample_raman_direction(const Vec3& d, Rng& rng) const {
-    // cos(psi) by rejection from the uniform density (accepted at least 1 / (1 + rho) of the
-    // time: 65 % for water's 0.55), then a uniform azimuth about d.
-    double mu;
-    do mu = 2.0 * rng.uniform() - 1.0;
-    while (rng.uniform() * (1.0 + raman_rho) > 1.0 + raman_rho * mu * mu);
-    return direction_around(d, 1.0 - mu, 2.0 * kPi * rng.uniform());
-}
-
 void Water::set_grid_coefficients(int nbands) {
     VoxelGrid& g = *grid;
     const int nf = grid_fields();
@@ -145,6 +143,15 @@ void Water::set_grid_coefficients(int nbands) {
         mis_bsum += b;
         mis_wsum += b;
     }
+}
+
+Vec3 Inelastic::sample_direction(const Vec3& d, Rng& rng) const {
+    // cos(psi) by rejection from the uniform density (accepted at least 1 / (1 + rho) of the
+    // time: 65 % for Raman's 0.55, always when isotropic), then a uniform azimuth about d.
+    double mu;
+    do mu = 2.0 * rng.uniform() - 1.0;
+    while (rho > 0.0 && rng.uniform() * (1.0 + rho) > 1.0 + rho * mu * mu);
+    return direction_around(d, 1.0 - mu, 2.0 * kPi * rng.uniform());
 }
 
 }  // namespace photic

@@ -23,6 +23,35 @@ struct Spectrum {
     static Spectrum constant(double c) { Spectrum s; s.v.fill(c); return s; }
 };
 
+// Inelastic processes: Raman scattering by water, fluorescence by chlorophyll (their light is
+// reported apart: Components::inelastic[kind]).
+constexpr int kInelasticKinds = 2;
+enum InelasticKind { kRaman = 0, kChlorophyll = 1 };
+
+// One inelastic process of a water body (Scene::set_water_inelastic): light of excitation band
+// i leaves it (the loss is in the band's absorption) and re-appears in emission band j, with
+// coupling(l)[j * nb + i] (m^-1) in layer l the gain of band j per unit of band i's spectral
+// irradiance (the emission's share in band j, photons to energy), and the phase function
+// 3 / (4 pi (3 + rho)) (1 + rho cos^2) (Raman: rho 0.55; fluorescence: 0, isotropic). One
+// layer's coupling serves every layer. Beams (their single scattering) and paths (their own
+// inelastic collisions) alike.
+struct Inelastic {
+    int kind = kRaman;
+    double rho = 0.0;
+    int nb = 0, nlayers = 1;
+    std::vector<double> coupling;  // nlayers x nb x nb
+    std::vector<Spectrum> in;      // per layer, per emission band j: sum_i coupling[j][i]
+    Spectrum in_max;               // per emission band: its largest over the layers
+    // Per emission band j, the excitation bands [from[j], to[j]) of its nonzero couplings in
+    // any layer (a few neighbours for Raman: the loop over them is what it costs per beam).
+    std::vector<int> from, to;
+    double rate = 0.0;             // the largest `in`: the rate of the paths' tentative collisions
+    const double* at(int layer) const { return coupling.data() + size_t(nlayers > 1 ? layer : 0) * nb * nb; }
+    const Spectrum& in_at(int layer) const { return in[nlayers > 1 ? layer : 0]; }
+    double phase(double mu) const { return 3.0 / (4.0 * kPi * (3.0 + rho)) * (1.0 + rho * mu * mu); }
+    Vec3 sample_direction(const Vec3& d, Rng& rng) const;
+};
+
 struct ScatterComponent {
     int phase = 0;   // index into Scene::phases (the same in every layer of a water body)
     double f = 0.0;  // fraction of its phase function inside the forward cone (kept in beams)
@@ -61,27 +90,14 @@ struct Water {
     double b_max = 0.0;                  // largest b (all scattering) over bands, layers, voxels
     double mis_bsum = 0.0;               // sum of all b (beam-direction MIS sampling)
     double mis_wsum = 0.0;               // sum of the components' weights (its pdf)
-    // Raman scattering by the water itself (set_water_raman): raman[j * nb + i] is the
-    // coefficient (m^-1) with which light of excitation band i, Raman-scattered, adds to
-    // emission band j per unit of band i's spectral irradiance (b_R(i) times the share of its
-    // emission in band j, photons to energy), and raman_rho the phase function's
-    // 3 / (4 pi (3 + rho)) (1 + rho cos^2); empty: none. The beams' light (single
-    // scattering of the refracted sun) and paths (their own inelastic collisions) alike.
-    std::vector<double> raman;
-    double raman_rho = 0.55;
-    // Per emission band j, the excitation bands [raman_from[j], raman_to[j]) of its nonzero
-    // couplings (a few neighbours: the loop over them is what Raman costs per beam).
-    std::vector<int> raman_from, raman_to;
-    // Per emission band j, sum_i raman[j * nb + i] (its gain per unit radiance of its
-    // excitation bands), and their largest: the rate of the paths' tentative Raman
-    // collisions (uniform: a property of the water itself, the same in every layer).
-    Spectrum raman_in;
-    double raman_rate = 0.0;
-    // The Raman phase function at cos(psi) = mu, and a direction drawn from it around d.
-    double raman_phase(double mu) const {
-        return 3.0 / (4.0 * kPi * (3.0 + raman_rho)) * (1.0 + raman_rho * mu * mu);
-    }
-    Vec3 sample_raman_direction(const Vec3& d, Rng& rng) const;
+    // Its inelastic processes (none: purely elastic), and the sum of their rates.
+    std::vector<Inelastic> inelastic;
+    double inelastic_rate = 0.0;
+    // How often a path estimates the inelastic light along a water segment by a branch
+    // (Scene::inelastic_branch; else, until it makes one, it leaves it out: Russian roulette):
+    // as often as that light matters against the elastic light there, the largest gain /
+    // (gain + b_path) over the bands, at least 1/100 and at most 1/2 (set_forward_cone).
+    double inelastic_split = 0.0;
 
     // Its kind: homogeneous (one layer, no grid), layered (stratified) or gridded (grid set,
     // over one layer or several); varying(): not homogeneous.
@@ -317,8 +333,9 @@ private:
 class MediumWalk {
 public:
     // scratch: a grid's coefficients at the current collision (reused: one per thread);
-    // raman: where a deferred beam term's Raman light goes (the path's raman component).
-    MediumWalk(int nb, WaterLayer* scratch, Spectrum* raman) : nb_(nb), scratch_(scratch), raman_out_(raman) {}
+    // inelastic: where a deferred beam term's inelastic light goes (the path's components,
+    // kInelasticKinds of them).
+    MediumWalk(int nb, WaterLayer* scratch, Spectrum* inelastic) : nb_(nb), scratch_(scratch), inelastic_out_(inelastic) {}
 
     // ---- The path's absorption not yet carried by its throughput ----
     double absorbed(const Water& w, int k) const {  // the factor, band k
@@ -381,16 +398,17 @@ public:
     // A beam term along the segment at a point the walk has yet to pass (gridded water: its
     // attenuation comes from the walk) is written here by the beam code; null: none waits.
     double* beam_point() { return w_->grid ? &t_beam_ : nullptr; }
-    // The beam term's contribution and its Raman light (before the attenuation to its point,
-    // where deferred): added to *volume (and the raman component) now, or by settle() when the
-    // walk has passed its point.
-    void add_beam(const Spectrum& contribution, const Spectrum& raman, Spectrum* volume) {
+    // The beam term's contribution and its inelastic light (kInelasticKinds spectra; before
+    // the attenuation to its point, where deferred): added to *volume and the inelastic
+    // components now, or by settle() when the walk has passed its point.
+    void add_beam(const Spectrum& contribution, const Spectrum* inelastic, Spectrum* volume) {
         if (w_->grid) {
             beam_wait_ = contribution;
-            raman_wait_ = raman;
+            std::copy_n(inelastic, kInelasticKinds, inelastic_wait_);
         } else {
             for (int k = 0; k < nb_; ++k) volume->v[k] += contribution.v[k];
-            for (int k = 0; k < nb_; ++k) raman_out_->v[k] += raman.v[k];
+            for (int c = 0; c < kInelasticKinds; ++c)
+                for (int k = 0; k < nb_; ++k) inelastic_out_[c].v[k] += inelastic[c].v[k];
         }
     }
     // The distance to the first tentative collision, after the ray is cast (t_hit: where it
@@ -417,7 +435,7 @@ public:
         *majorant = w.grid ? w.grid_majorant(grho_) : w.stratified() ? L_->majorant : w.majorant;
         return *L_;
     }
-    // The path leaves the segment at t by a collision of its own process (Raman scattering,
+    // The path leaves the segment at t by a collision of its own process (an inelastic one,
     // independent of the walk's), the walk's last tentative collision at t_cur: the waiting
     // beam term and the absorption travelled up to t. A grid's walk may have gone on beyond t
     // (to its next tentative collision), so its integral to t is a walk of its own (rare:
@@ -501,7 +519,8 @@ private:
             double att[kMaxBands];
             w.grid_transmittance(o_.z, o_.z + d_.z * t_beam_, t_beam_, r_beam_, nb_, att);
             for (int kb = 0; kb < nb_; ++kb) volume->v[kb] += beam_wait_.v[kb] * att[kb];
-            for (int kb = 0; kb < nb_; ++kb) raman_out_->v[kb] += raman_wait_.v[kb] * att[kb];
+            for (int c = 0; c < kInelasticKinds; ++c)
+                for (int kb = 0; kb < nb_; ++kb) inelastic_out_[c].v[kb] += inelastic_wait_[c].v[kb] * att[kb];
             t_beam_ = -1.0;
         }
         if (end) w.grid_absorption(o_.z, o_.z + d_.z * t_end, t_end, r_end, nb_, &tau_a_);
@@ -509,7 +528,7 @@ private:
 
     const int nb_;
     WaterLayer* scratch_;
-    Spectrum* raman_out_;
+    Spectrum* inelastic_out_;
     // The path's absorption since its throughput last carried it: `pending_` metres in
     // homogeneous water (factor exp(-a s)), or the optical depth tau_a_ per band in layered or
     // gridded water, added exactly segment by segment (factor exp(-tau_a)).
@@ -526,7 +545,7 @@ private:
     double grho_[VoxelGrid::kMaxFields] = {};  // a grid's densities at the collision
     double t_beam_ = -1.0, r_beam_[VoxelGrid::kMaxFields] = {};
     bool beam_read_ = false;
-    Spectrum beam_wait_, raman_wait_;
+    Spectrum beam_wait_, inelastic_wait_[kInelasticKinds];
 };
 
 }  // namespace photic

@@ -67,7 +67,8 @@ PYBIND11_MODULE(_core, m) {
     py::register_exception<EmbreeError>(m, "EmbreeError", PyExc_RuntimeError);
     m.attr("MAX_BANDS") = kMaxBands;
     bind_rough_interface(m);
-    m.attr("COMPONENTS") = py::make_tuple("total", "beam_surface", "beam_volume", "path", "beam_direct");
+    m.attr("COMPONENTS") = py::make_tuple("total", "beam_surface", "beam_volume", "path", "beam_direct", "raman",
+                                          "chlorophyll");
 
     m.def("fresnel", [](double cos_i, double n1, double n2) { return fresnel_unpolarized(cos_i, n1, n2); },
           py::arg("cos_i"), py::arg("n1"), py::arg("n2"),
@@ -219,36 +220,55 @@ PYBIND11_MODULE(_core, m) {
             return int(s.waters.size()) - 1;
         }, py::arg("ior"), py::arg("absorption"), py::arg("components"),
            "A water body; its IOPs hold everywhere, or above the first layer added below it.")
-        .def("set_water_raman", [](Scene& s, int water, DArray coupling, double rho) {
+        .def("set_water_inelastic", [](Scene& s, int water, int kind, DArray coupling, double rho) {
             Water& w = s.waters.at(water);
             const int nb = s.nbands;
-            if (coupling.ndim() != 2 || coupling.shape(0) != nb || coupling.shape(1) != nb)
-                throw std::invalid_argument("Raman coupling must be (nbands, nbands): [emission, excitation]");
-            if (!(rho >= 0.0 && rho <= 1.0)) throw std::invalid_argument("Raman phase rho must be in [0, 1]");
-            w.raman.assign(coupling.data(), coupling.data() + coupling.size());
-            for (double x : w.raman)
-                if (!(x >= 0.0 && std::isfinite(x))) throw std::invalid_argument("Raman coupling must be finite and >= 0");
-            w.raman_rho = rho;
-            w.raman_from.assign(nb, 0);
-            w.raman_to.assign(nb, 0);
-            for (int j = 0; j < nb; ++j)
-                for (int i = 0; i < nb; ++i)
-                    if (w.raman[size_t(j) * nb + i] > 0.0) {
-                        if (w.raman_to[j] == 0) w.raman_from[j] = i;
-                        w.raman_to[j] = i + 1;
+            if (kind < 0 || kind >= kInelasticKinds) throw std::invalid_argument("unknown inelastic process kind");
+            const int nl = coupling.ndim() == 3 ? int(coupling.shape(0)) : 1;
+            if (!((coupling.ndim() == 2 || coupling.ndim() == 3) && coupling.shape(coupling.ndim() - 2) == nb &&
+                  coupling.shape(coupling.ndim() - 1) == nb) ||
+                (nl != 1 && nl != int(w.layers.size())))
+                throw std::invalid_argument("inelastic coupling must be (nbands, nbands) or (layers, nbands, "
+                                            "nbands): [layer, emission, excitation]");
+            if (!(rho >= 0.0 && rho <= 1.0)) throw std::invalid_argument("inelastic phase rho must be in [0, 1]");
+            Inelastic P;
+            P.kind = kind;
+            P.rho = rho;
+            P.nb = nb;
+            P.nlayers = nl;
+            P.coupling.assign(coupling.data(), coupling.data() + coupling.size());
+            for (double x : P.coupling)
+                if (!(x >= 0.0 && std::isfinite(x))) throw std::invalid_argument("inelastic coupling must be finite and >= 0");
+            P.from.assign(nb, 0);
+            P.to.assign(nb, 0);
+            P.in.assign(nl, Spectrum());
+            for (int l = 0; l < nl; ++l)
+                for (int j = 0; j < nb; ++j)
+                    for (int i = 0; i < nb; ++i) {
+                        const double m = P.coupling[(size_t(l) * nb + j) * nb + i];
+                        if (!(m > 0.0)) continue;
+                        P.from[j] = P.to[j] == 0 ? i : std::min(P.from[j], i);
+                        P.to[j] = std::max(P.to[j], i + 1);
+                        P.in[l].v[j] += m;
                     }
-            w.raman_in = Spectrum();
-            w.raman_rate = 0.0;
-            for (int j = 0; j < nb; ++j) {
-                for (int i = 0; i < nb; ++i) w.raman_in.v[j] += w.raman[size_t(j) * nb + i];
-                w.raman_rate = std::max(w.raman_rate, w.raman_in.v[j]);
-            }
-            if (!(w.raman_rate > 0.0)) w.raman.clear();  // (no band receives any: none)
-        }, py::arg("water"), py::arg("coupling"), py::arg("rho"),
-           "Raman scattering by the water body's water: coupling[j, i] (m^-1) from excitation band i "
-           "into emission band j per unit of band i's spectral irradiance; phase function "
-           "3 / (4 pi (3 + rho)) (1 + rho cos^2). The beams' single scattering and the paths' own "
-           "Raman collisions (both integrators).")
+            for (int l = 0; l < nl; ++l)
+                for (int j = 0; j < nb; ++j) {
+                    P.in_max.v[j] = std::max(P.in_max.v[j], P.in[l].v[j]);
+                    P.rate = std::max(P.rate, P.in[l].v[j]);
+                }
+            if (!(P.rate > 0.0)) return;  // (no band receives any: nothing to do)
+            for (Inelastic& Q : w.inelastic)
+                if (Q.kind == kind) throw std::invalid_argument("an inelastic process of this kind is set already");
+            w.inelastic.push_back(std::move(P));
+            w.inelastic_rate = 0.0;
+            for (const Inelastic& Q : w.inelastic) w.inelastic_rate += Q.rate;
+        }, py::arg("water"), py::arg("kind"), py::arg("coupling"), py::arg("rho"),
+           "An inelastic process of the water body (kind 0: Raman scattering, 1: chlorophyll "
+           "fluorescence): coupling[(layer,) j, i] (m^-1) from excitation band i into emission band "
+           "j per unit of band i's spectral irradiance (one per layer, or one for all); phase "
+           "function 3 / (4 pi (3 + rho)) (1 + rho cos^2). The beams' single scattering and the "
+           "paths' own inelastic collisions (both integrators). Its loss is the caller's, in the "
+           "bands' absorption.")
         .def("add_water_layer", [](Scene& s, int water, double z_top, DArray a, std::vector<DArray> b) {
             if (water < 0 || water >= int(s.waters.size())) throw std::invalid_argument("bad water index");
             Water& w = s.waters[water];

@@ -19,7 +19,7 @@
 
 namespace photic {
 
-constexpr int kNumComponents = 6;  // total, beam_surface, beam_volume, path, beam_direct, raman
+constexpr int kNumComponents = 7;  // total, beam_surface, beam_volume, path, beam_direct, raman, chlorophyll
 constexpr int kRoughFlatBeams = 16;  // facets per build below a rough flat ocean
 constexpr int kMaxBeams = 64;      // beams summed at one point (overlaps in strong caustics)
 // Exact mode (forward cone 0): the fraction of path continuations drawn around a beam's
@@ -184,7 +184,9 @@ struct Components {
     Spectrum beam_surface;  // the sun from beams on surfaces (refracted under water, reflected in the air)
     Spectrum beam_volume;   // single scattering of beams along traced water segments
     Spectrum path;          // everything path tracing finds itself (sky, sun above water, ...)
-    Spectrum raman;         // light Raman-scattered by water into these bands (beams' or paths')
+    // Light an inelastic process (InelasticKind: Raman, chlorophyll fluorescence) put into
+    // these bands, the beams' or the paths' (a path's first such event decides the kind).
+    Spectrum inelastic[kInelasticKinds];
 };
 
 struct alignas(64) Counters {  // one cache line each: no false sharing between threads
@@ -373,9 +375,11 @@ public:
     // radiometer's always take them: its other noise is small, so they pay even in clear water).
     // reflect_covered: the reflected beams in the air already count the sun reaching o by one
     // reflection on the water (a radiometer in the air, hybrid).
+    // branch_inelastic: the path may estimate the inelastic light along its water segments by
+    // a branch (inelastic_branch; one at most); a branch's own path may not.
     Components trace(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
                      Counters& c, double first_beam_weight = 1.0, bool camera = false,
-                     bool reflect_covered = false) const;
+                     bool reflect_covered = false, bool branch_inelastic = true) const;
     bool has_beams() const { return flat_beam || !prisms.empty(); }
     // The phase function `phase` seen by a beam's light (1/sr at x = 1 - cos psi): with the
     // sun-disk blur, averaged over the refracted sun's disk (a cap of angular radius
@@ -401,9 +405,10 @@ public:
     // without the throughput), one distance sample.
     // deferred_t: in gridded water, the attenuation from o to the point drawn is left out and
     // that point's distance stored here, for a caller who walks the segment anyway.
-    // raman: the same point's Raman scattering of the beams into each band (Water::raman).
+    // inelastic: the same point's inelastic scattering of the beams into each band, per kind
+    // (kInelasticKinds spectra; Water::inelastic).
     void beam_scatter_along(const Vec3& o, const Vec3& d, double T, int medium, Rng& rng, Spectrum* out,
-                            double* deferred_t = nullptr, Spectrum* raman = nullptr) const;
+                            double* deferred_t = nullptr, Spectrum* inelastic = nullptr) const;
     bool strongest_beam(const Vec3& x, int medium, BeamSample* beam) const;
     // How often a camera path at a point lit by `beam` tries the beam's reverse direction: the
     // probability of the beam-scattering MIS's second sample (and, times kBeamGuide, of a
@@ -470,7 +475,7 @@ private:
     // term is 0), and the sum over the beams found at x = o + d t.
     bool beam_scatter_point(const Water& w, const Vec3& d, double T, Rng& rng, double* t, double* pdf) const;
     void beam_scatter_sum(const Vec3& o, const Vec3& d, double t, double pdf, int medium, const BeamSample* beams,
-                          int n, Spectrum* out, double* deferred_t, Spectrum* raman = nullptr) const;
+                          int n, Spectrum* out, double* deferred_t, Spectrum* inelastic = nullptr) const;
     // A path's beam-scattering terms in water (along its water segments and its MIS rays) whose
     // points are drawn in turn but whose beams are looked up together when the path ends: all
     // their grid cells are fetched, then all their candidates' keys, then the prisms whose keys
@@ -488,16 +493,18 @@ private:
         };
         int n = 0;
         Term terms[kMax];
-        // After a Raman collision the path carries the light of the bands that excite the
-        // ones it set out in: what it finds in band i goes to band k of the result at
-        // share[k * nb + i] (fold_inelastic), into the raman component. `before`: the
-        // components when it was last folded; inelastic: whether it had such a collision.
+        // After an inelastic collision the path carries the light of the bands that excite
+        // the ones it set out in: what it finds in band i goes to band k of the result at
+        // share[k * nb + i] (fold_inelastic), into the component of its first such
+        // collision's kind. `before`: the components when it was last folded; inelastic:
+        // whether it had such a collision.
         bool inelastic = false;
+        int kind = kRaman;
         Components before;
         double share[kMaxBands * kMaxBands];
     };
-    // Moves what the path found since its last Raman collision into the raman component, in
-    // the bands it set out in (the terms settled first).
+    // Moves what the path found since its last inelastic collision into the component of its
+    // kind, in the bands it set out in (the terms settled first).
     void fold_inelastic(BeamTerms& b, Components* out) const;
     // Queues a term (settling a full list first); returns its weight, for the caller to fill.
     double* queue_beam_term(BeamTerms& b, Components* out, const Vec3& o, const Vec3& d, double t, double pdf,
@@ -506,7 +513,14 @@ private:
     // trace's body (trace settles the path's beam terms when it returns).
     Components trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool beam_covered, Rng& rng,
                           Counters& c, double first_beam_weight, bool camera, bool reflect_covered,
-                          BeamTerms& terms) const;
+                          BeamTerms& terms, bool branch_inelastic) const;
+    // The inelastic light along the water segment [0, T] from o along d, seen from o: a point
+    // drawn on it, a process by its share of the gain there, and a new path from there in a
+    // direction drawn from the process's phase function, whose light (in the bands that excite
+    // the path's) comes back into the path's bands; weight[k]: the path's throughput in band k
+    // over the branch's probability. Added to out->inelastic.
+    void inelastic_branch(const Vec3& o, const Vec3& d, double T, int medium, const double* weight, Rng& rng,
+                          Counters& c, bool camera, Components* out) const;
     // Starts fetching the water beams' grid cells at x in `medium` (a hint: a later lookup
     // there then finds them in the cache; the cells by multiplications, which may differ from
     // lookup's at a cell's edge): below the periodic patch, the cells of x's images in every

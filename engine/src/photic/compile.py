@@ -139,15 +139,15 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
             core.set_material_texture(mi, np.ascontiguousarray(img), mat.texture.wrap == "clamp",
                                       mat.texture.interpolation == "closest")
 
-    # Raman scattering (settings.raman): light leaves each band at b_R (added to its
-    # absorption) and the beams' light comes back in the bands it shifts to (the coupling);
-    # only between the bands of this group (render warns when groups part coupled bands).
-    from .inelastic import RAMAN_RHO, raman_active, raman_b, raman_coupling
-    raman = None
+    # Inelastic processes (photic.inelastic): Raman scattering (settings.raman) takes b_R from
+    # each band (added to its absorption; fluorescence's loss, the phytoplankton's absorption,
+    # is in the water's already), and light comes back in the bands it shifts to (the
+    # couplings), only between the bands of this group (render warns when groups part them).
+    from .inelastic import raman_active, raman_b, water_processes
+    b_raman = None
     if raman_active(scene):
-        centers = np.array([b.center_nm for b in scene.bands], float)
-        raman = (sel(raman_b(centers)), np.ascontiguousarray(raman_coupling(scene.bands)[bands, bands]))
-    loss = (lambda a: sel(a) + raman[0]) if raman is not None else sel
+        b_raman = sel(raman_b(np.array([b.center_nm for b in scene.bands], float)))
+    loss = (lambda a: sel(a) + b_raman) if b_raman is not None else sel
 
     water_index = {}
     for w in scene.water:
@@ -167,8 +167,8 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
         for z_top, layer in zip(np.asarray(base.z_top)[1:] if len(layers) > 1 else [], layers[1:]):
             b = [sel(c.b) for c in layer.scattering] or [np.zeros(nb)]
             core.add_water_layer(wi, float(z_top), loss(layer.absorption), b)
-        if raman is not None:  # (the water's own: in the base, whatever a grid adds)
-            core.set_water_raman(wi, raman[1], RAMAN_RHO)
+        for kind, coupling, rho in water_processes(scene, w):  # (in the base, whatever a grid adds)
+            core.set_water_inelastic(wi, kind, np.ascontiguousarray(coupling[..., bands, bands]), rho)
         if grid is not None:  # 3-D IOPs: base + each field's density x its unit over the box
             origin = np.asarray(grid.origin, dtype=np.float64)
             units = grid.units()

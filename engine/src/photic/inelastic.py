@@ -130,3 +130,78 @@ def raman_coverage(bands) -> np.ndarray:
         total = src.sum()
         out[j] = float(src[inside].sum() / total) if total > 0 else 1.0
     return out
+
+
+# ---- Chlorophyll fluorescence ----------------------------------------------------------------
+#
+# Phytoplankton re-emit a small share of the light their chlorophyll absorbs, isotropically,
+# around 685 nm (the emission of chlorophyll a in vivo: a Gaussian of about 25 nm full width,
+# e.g. Gordon 1979, Appl. Opt. 18, 1161; Mobley 1994, "Light and Water", 5.13). The excitation
+# is the phytoplankton's absorption a_ph between 370 and 690 nm; the quantum yield (photons
+# emitted per photon absorbed) is a parameter, 0.02 by default (natural waters: about
+# 0.01-0.05). Energy: an absorbed photon of lambda' gives an emitted photon of lambda, so the
+# energy re-emitted is phi (lambda' / lambda) of the energy absorbed.
+
+CHL_EXCITATION_NM = (370.0, 690.0)  # the chlorophyll's excitation range
+CHL_PEAK_NM = 685.0
+CHL_FWHM_NM = 25.0
+CHL_YIELD = 0.02
+CHL_REACH = 4.0  # the emission's Gaussian is cut at 4 full widths (beyond: < 1e-19 of its peak)
+
+
+def chlorophyll_emission(emission_nm, peak_nm: float = CHL_PEAK_NM, fwhm_nm: float = CHL_FWHM_NM) -> np.ndarray:
+    """g(lambda) (nm^-1): the share of emitted photons per nm (normalised over lambda)."""
+    lam = np.asarray(emission_nm, float)
+    sigma = fwhm_nm / (2.0 * math.sqrt(2.0 * math.log(2.0)))
+    g = np.exp(-0.5 * ((lam - peak_nm) / sigma) ** 2) / (sigma * math.sqrt(2.0 * math.pi))
+    return np.where(np.abs(lam - peak_nm) <= CHL_REACH * fwhm_nm, g, 0.0)
+
+
+def chlorophyll_coupling(bands, absorption, quantum_yield: float = CHL_YIELD, peak_nm: float = CHL_PEAK_NM,
+                         fwhm_nm: float = CHL_FWHM_NM) -> np.ndarray:
+    """(nb, nb) coupling [emission j, excitation i] (m^-1), or (layers, nb, nb) for one
+    absorption spectrum per layer, as ``raman_coupling``'s: light of spectral irradiance E
+    (per nm) flat over excitation band i, absorbed by the phytoplankton (a_ph[i], flat over
+    the band's part in 370-690 nm), gives emission band j the mean spectral source
+    coupling[j, i] E per unit solid angle times the isotropic phase function 1 / (4 pi):
+    phi a_ph[i] int (lambda' / lambda) g(lambda) dlambda', averaged over lambda in band j."""
+    a = np.asarray(absorption, float)
+    if a.ndim == 2:
+        return np.stack([chlorophyll_coupling(bands, row, quantum_yield, peak_nm, fwhm_nm) for row in a])
+    nb = len(bands)
+    lo, hi = CHL_EXCITATION_NM
+    m = np.zeros((nb, nb))
+    for i, bi in enumerate(bands):
+        c, w = float(bi.center_nm), float(bi.width_nm)
+        left, right = max(c - 0.5 * w, lo), min(c + 0.5 * w, hi)
+        if not (right > left) or not (a[i] > 0):
+            continue
+        lam_ex = 0.5 * (left + right)  # int over the excitation part of lambda' d lambda' = its width x its mean
+        absorbed = quantum_yield * a[i] * (right - left) * lam_ex
+        for j, bj in enumerate(bands):
+            lem = _band_nodes(float(bj.center_nm), float(bj.width_nm))
+            m[j, i] = absorbed * float(np.mean(chlorophyll_emission(lem, peak_nm, fwhm_nm) / lem))
+    return m
+
+
+def chlorophyll_coverage(bands, peak_nm: float = CHL_PEAK_NM, fwhm_nm: float = CHL_FWHM_NM) -> float:
+    """The share of the emitted photons whose wavelengths lie inside the scene's bands."""
+    grid = np.linspace(peak_nm - CHL_REACH * fwhm_nm, peak_nm + CHL_REACH * fwhm_nm, 4001)
+    inside = np.zeros_like(grid, dtype=bool)
+    for b in bands:
+        inside |= np.abs(grid - float(b.center_nm)) <= 0.5 * float(b.width_nm)
+    g = chlorophyll_emission(grid, peak_nm, fwhm_nm)
+    return float(np.trapz(g * inside, grid) / np.trapz(g, grid))
+
+
+def water_processes(scene, water) -> list[tuple[int, np.ndarray, float]]:
+    """The inelastic processes of a water body for the core (Scene.set_water_inelastic):
+    (kind, coupling over all the scene's bands, phase rho); kind 0 Raman scattering (with
+    raman_active), 1 chlorophyll fluorescence (a water with ``fluorescence``)."""
+    out = []
+    if raman_active(scene):
+        out.append((0, raman_coupling(scene.bands), RAMAN_RHO))
+    f = getattr(water, "fluorescence", None)
+    if f is not None:
+        out.append((1, chlorophyll_coupling(scene.bands, f.absorption, f.quantum_yield, f.peak_nm, f.fwhm_nm), 0.0))
+    return out

@@ -35,15 +35,21 @@ UNITS_IRRADIANCE = "W m^-2 (per unit of the band's source spectrum, e.g. nm^-1)"
 IRRADIANCE_QUANTITIES = {"Ed", "Eu", "Eo", "Eod", "Eou"}
 
 
-COMPONENTS = ("beam_surface", "beam_volume", "path", "beam_direct", "raman")
-# A camera's component passes (beam_direct is a radiometer's own; raman with settings.raman).
-IMAGE_COMPONENTS = ("beam_surface", "beam_volume", "path", "raman")
+COMPONENTS = ("beam_surface", "beam_volume", "path", "beam_direct", "raman", "chlorophyll")
+# A camera's component passes (beam_direct is a radiometer's own; raman with settings.raman,
+# chlorophyll where a water fluoresces).
+IMAGE_COMPONENTS = ("beam_surface", "beam_volume", "path", "raman", "chlorophyll")
 
 
 def image_components(scene) -> tuple[str, ...]:
     """The component passes of a scene's pixels."""
     from .inelastic import raman_active
-    return IMAGE_COMPONENTS if raman_active(scene) else IMAGE_COMPONENTS[:3]
+    out = IMAGE_COMPONENTS[:3]
+    if raman_active(scene):
+        out += ("raman",)
+    if any(getattr(w, "fluorescence", None) is not None for w in scene.water):
+        out += ("chlorophyll",)
+    return out
 
 
 @dataclass

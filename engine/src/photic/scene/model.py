@@ -401,6 +401,23 @@ class OceanSurface(_ArrayEq):
 
 
 @dataclass(eq=False)
+class ChlorophyllFluorescence(_ArrayEq):
+    """Fluorescence of a water body's phytoplankton (photic.inelastic): of the light its
+    chlorophyll absorbs between 370 and 690 nm (``absorption``: the phytoplankton's
+    absorption coefficient per band, m^-1, part of the water's own absorption; one spectrum,
+    or one per layer of an ``iop_profile``), the ``quantum_yield`` share of photons is
+    re-emitted isotropically in a Gaussian around ``peak_nm`` of full width ``fwhm_nm``."""
+
+    absorption: np.ndarray
+    quantum_yield: float = 0.02
+    peak_nm: float = 685.0
+    fwhm_nm: float = 25.0
+
+    def __post_init__(self):
+        self.absorption = np.asarray(self.absorption, dtype=np.float64)
+
+
+@dataclass(eq=False)
 class WaterBody(_ArrayEq):
     """A water body: type ``"mesh"`` (closed ``mesh``) or ``"ocean"`` (``surface``, optional
     flat bottom at ``surface.z - bottom_depth`` made of ``bottom_material``). ``iops`` is an
@@ -415,6 +432,7 @@ class WaterBody(_ArrayEq):
     surface: OceanSurface | None = None
     bottom_depth: float | None = None
     bottom_material: str | None = None
+    fluorescence: ChlorophyllFluorescence | None = None  # chlorophyll fluorescence, or none
 
 
 @dataclass(eq=False)

@@ -18,7 +18,7 @@ from .checks import (
 from .model import (
     Band, Camera, GridField, IOPGrid, IOPProfile, IOPs, Material, MaterialTexture, MeshObject, OceanSurface,
     PhaseFunction, Radiometer, RadiometerArray, ScatteringComponent, Scene, Settings, Sky,
-    Sun, SurfaceRoughness, TriangleMesh, WaterBody, _default_bands,
+    Sun, SurfaceRoughness, TriangleMesh, WaterBody, _default_bands, ChlorophyllFluorescence,
 )
 from .schema_errors import _check_schema
 
@@ -250,6 +250,16 @@ def _read_density(label: str, value: Any, fld: str) -> np.ndarray:
 
 
 def _read_water(label: str, d: dict, bands: list, base_dir: Path) -> WaterBody:
+    w = _read_water_body(label, d, bands, base_dir)
+    f = d.get("chlorophyll_fluorescence")
+    if f is not None:
+        w.fluorescence = ChlorophyllFluorescence(
+            np.asarray(f["absorption"], dtype=np.float64), float(f.get("quantum_yield", 0.02)),
+            float(f.get("peak_nm", 685.0)), float(f.get("fwhm_nm", 25.0)))
+    return w
+
+
+def _read_water_body(label: str, d: dict, bands: list, base_dir: Path) -> WaterBody:
     nbands = len(bands)
     if "iop_model" in d:
         from ..iop_models import iops_from_model

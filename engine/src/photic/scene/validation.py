@@ -153,9 +153,21 @@ def scene_warnings(s: Scene) -> list[str]:
             if float(c.position[2]) < floor:
                 out.append(f"camera '{c.name}': position z = {float(c.position[2]):g} m is below the "
                            f"sea floor (z = {floor:g} m): it sees nothing")
-    from ..inelastic import raman_active
+    from ..inelastic import chlorophyll_coverage, raman_active
     if raman_active(s):
         out += _raman_warnings(s)
+    for w in s.water:
+        f = w.fluorescence
+        if f is None:
+            continue
+        seen = chlorophyll_coverage(s.bands, f.peak_nm, f.fwhm_nm)
+        if seen < 0.9:
+            out.append(f"water '{w.name}': its chlorophyll fluoresces around {f.peak_nm:g} nm (full width "
+                       f"{f.fwhm_nm:g} nm); the scene's bands hold {100 * seen:.0f} % of that light (add a band "
+                       f"there to see it)")
+        if isinstance(w.iops, IOPGrid):
+            out.append(f"water '{w.name}': chlorophyll fluorescence comes from its base IOPs' phytoplankton "
+                       f"(the absorption given), not from its grid's fields")
     return out
 
 
@@ -605,6 +617,8 @@ def _validate_water(label: str, w: WaterBody, nbands: int, materials: dict) -> N
         _validate_grid(label, w.iops, nbands)
     else:
         _validate_iops(label, w.iops, nbands)
+    if w.fluorescence is not None:
+        _validate_fluorescence(label, w, nbands)
     if w.type == "mesh":
         for attr in ("surface", "bottom_depth", "bottom_material"):
             if getattr(w, attr) is not None:
@@ -618,6 +632,42 @@ def _validate_water(label: str, w: WaterBody, nbands: int, materials: dict) -> N
     if w.bottom_depth is not None or w.bottom_material is not None:
         check_parameter(label, "bottom.depth", w.bottom_depth, "bottom_depth")
         _check_material_ref(label, "bottom_material", w.bottom_material, materials)
+
+
+def _base_absorptions(w: WaterBody) -> list[np.ndarray]:
+    """The water's own absorption per band, per layer of its base (a grid's fields aside)."""
+    base = w.iops.iops if isinstance(w.iops, IOPGrid) else w.iops
+    layers = base.layers if isinstance(base, IOPProfile) else [base]
+    return [np.asarray(x.absorption, float) for x in layers]
+
+
+def _validate_fluorescence(label: str, w: WaterBody, nbands: int) -> None:
+    from .model import ChlorophyllFluorescence
+    f = w.fluorescence
+    fld = "chlorophyll_fluorescence"
+    if not isinstance(f, ChlorophyllFluorescence):
+        raise SceneError(label, fld, f"must be a ChlorophyllFluorescence, got {_show(f)}")
+    layers = _base_absorptions(w)
+    a = np.asarray(f.absorption)
+    if a.dtype == object or not (a.shape == (nbands,) or (len(layers) > 1 and a.shape == (len(layers), nbands))):
+        per_layer = f", or one list per layer ({len(layers)} x {nbands})" if len(layers) > 1 else ""
+        raise SceneError(label, f"{fld}.absorption", f"must hold one value per band ({nbands}){per_layer}, "
+                                                     f"got shape {_show(list(np.shape(a)))}")
+    a = a.astype(float)
+    if not np.all(np.isfinite(a)) or np.any(a < 0):
+        raise SceneError(label, f"{fld}.absorption", f"must be finite numbers >= 0 (m^-1), got {_show(a.tolist())}")
+    rows = a if a.ndim == 2 else [a] * len(layers)
+    for li, (row, total) in enumerate(zip(rows, layers)):
+        over = np.nonzero(row > total * (1.0 + 1e-12))[0]
+        if over.size:
+            k = int(over[0])
+            where = f" in layer {li}" if len(layers) > 1 else ""
+            raise SceneError(label, f"{fld}.absorption", f"is the phytoplankton's part of the water's absorption, "
+                                                         f"so at most it: band {k}{where} has {row[k]:g} m^-1 "
+                                                         f"against the water's {total[k]:g}")
+    _check_real(label, f"{fld}.quantum_yield", f.quantum_yield, 0.0, 1.0)
+    _check_real(label, f"{fld}.peak_nm", f.peak_nm, 300.0, 1000.0)
+    _check_real(label, f"{fld}.fwhm_nm", f.fwhm_nm, 0.0, 200.0, lo_open=True)
 
 
 def _validate_surface(label: str, surface: Any) -> None:

@@ -92,6 +92,11 @@ def _water_to_dict(w: WaterBody) -> dict:
             d["surface"]["roughness"]["wind_direction_deg"] = float(s.roughness.wind_direction_deg)
     d["bottom"] = None if w.bottom_depth is None else {"depth": float(w.bottom_depth),
                                                        "material": w.bottom_material}
+    if w.fluorescence is not None:
+        f = w.fluorescence
+        d["chlorophyll_fluorescence"] = {"absorption": np.asarray(f.absorption, float).tolist(),
+                                         "quantum_yield": float(f.quantum_yield), "peak_nm": float(f.peak_nm),
+                                         "fwhm_nm": float(f.fwhm_nm)}
     return d
 
 
