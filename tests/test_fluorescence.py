@@ -60,6 +60,26 @@ def _scene(integrator, sun, sky, layered=False, raman=False, a_ph=A_PH):
     return Scene.from_dict(d)
 
 
+def single_fluorescence_lu(a, em, m, sun, layered):
+    """The closed form of single isotropic fluorescence of band 0's refracted sky (radiance 1)
+    and, with ``sun``, sun at the zenith (irradiance 1) into band ``em`` (coupling ``m``), seen
+    going straight up at 1 m (2 deg cap) in water of absorption ``a`` that does not scatter
+    elastically; ``layered``: below 3 m half the absorption and half the coupling."""
+    if layered:
+        def tau(k):
+            return lambda z0, z1: (a[k] * np.clip(np.minimum(z1, 3.0) - z0, 0.0, None)
+                                   + 0.5 * a[k] * np.clip(z1 - np.maximum(z0, 3.0), 0.0, None))
+        m_of_z = lambda z: np.where(np.asarray(z) <= 3.0, m, 0.5 * m)  # noqa: E731
+    else:
+        def tau(k):
+            return lambda z0, z1: a[k] * (z1 - z0)
+        m_of_z = lambda z: m  # noqa: E731
+    expect = _sky_raman_nadir_radiance(tau(0), tau(em), 1.0, 1.0, ISO, m_of_z)
+    if sun:
+        expect += _sun_raman_radiance_in_cap(tau(0), tau(em), 1.0, np.radians(2.0), ISO, m_of_z)
+    return expect
+
+
 @pytest.mark.parametrize("integrator, layered", [("path", False), ("path", True), ("hybrid", False),
                                                  ("hybrid", True)])
 def test_fluorescence_matches_its_closed_form(zscore, integrator, layered):
@@ -68,20 +88,8 @@ def test_fluorescence_matches_its_closed_form(zscore, integrator, layered):
     phytoplankton absorbing 0.004 m^-1 at 450 nm (half that below 3 m in the layered water,
     whose total absorption halves there too)."""
     m = inelastic.chlorophyll_coupling(BANDS, A_PH, quantum_yield=0.03)[2, 0]
-    if layered:
-        def tau(k):
-            return lambda z0, z1: (A[k] * np.clip(np.minimum(z1, 3.0) - z0, 0.0, None)
-                                   + 0.5 * A[k] * np.clip(z1 - np.maximum(z0, 3.0), 0.0, None))
-        m_of_z = lambda z: np.where(np.asarray(z) <= 3.0, m, 0.5 * m)  # noqa: E731
-        a_ph = [list(A_PH), list(A_PH * 0.5)]
-    else:
-        def tau(k):
-            return lambda z0, z1: A[k] * (z1 - z0)
-        m_of_z = lambda z: m  # noqa: E731
-        a_ph = A_PH
-    expect = _sky_raman_nadir_radiance(tau(0), tau(2), 1.0, 1.0, ISO, m_of_z)
-    if integrator == "hybrid":
-        expect += _sun_raman_radiance_in_cap(tau(0), tau(2), 1.0, np.radians(2.0), ISO, m_of_z)
+    expect = single_fluorescence_lu(A, 2, m, integrator == "hybrid", layered)
+    a_ph = [list(A_PH), list(A_PH * 0.5)] if layered else A_PH
     scene = _scene(integrator, integrator == "hybrid", 1.0, layered, a_ph=a_ph)
     r = render(scene, radiometer_samples=2_000_000, seed=21, threads=2).radiometers[0]
     value, se = float(r.mean[0, 2]), float(r.stderr[0, 2])

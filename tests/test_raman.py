@@ -264,10 +264,10 @@ def test_raman_light_lost_between_band_groups_is_said():
     """More than 16 bands render in groups whose paths carry only their own bands."""
     bands = [Band(f"{c}", float(c), 10.0) for c in range(405, 700, 10)]  # 30 bands: 2 groups
     scene = _sea(bands, [0.05] * len(bands), [1.0] * len(bands), "Eu")
-    from photic.compile import raman_group_warnings
+    from photic.compile import inelastic_group_warnings
     assert not [w for w in scene_warnings(scene) if "groups" in w]
-    warnings = raman_group_warnings(scene)
-    assert len(warnings) == 1 and "'565'" in warnings[0] and "'405'" not in warnings[0], warnings
+    warnings = inelastic_group_warnings(scene)
+    assert len(warnings) == 1 and "Raman light" in warnings[0] and "'565'" in warnings[0] and "'405'" not in warnings[0], warnings
 
 
 def test_a_camera_gets_its_raman_pass_and_the_passes_sum_to_the_total(tmp_path):

@@ -347,16 +347,15 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
             // a weight of order 1: rare, huge samples. A branch draws a point on every segment
             // it serves, the weight the source's share: at most one per path keeps the cost
             // at most twice.)
-            bool branch = false, roulette = false;
-            if (branch_inelastic && w.inelastic_rate > 0.0) {
-                double gain = 0.0;
+            double gain = 0.0;  // (> 0: some process feeds a band of this throughput)
+            if (w.inelastic_rate > 0.0)
                 for (const Inelastic& P : w.inelastic)
                     for (int k = 0; k < nb; ++k) gain += beta.v[k] * P.in_max.v[k];
-                if (gain > 0.0) {
-                    roulette = true;
-                    branch = rng.uniform() < w.inelastic_split;
-                    if (branch) branch_inelastic = false;
-                }
+            bool branch = false, roulette = false;
+            if (branch_inelastic && gain > 0.0) {
+                roulette = true;
+                branch = rng.uniform() < w.inelastic_split;
+                if (branch) branch_inelastic = false;
             }
             // Path tracing casts the ray only up to the first tentative collision (the
             // medium's bound for it); the beam terms and a branch need the whole length.
@@ -407,12 +406,7 @@ Components Scene::trace_path(Vec3 o, Vec3 d, int medium, bool sun_covered, bool 
             const Inelastic* shift = nullptr;  // the process of the collision chosen (null: none)
             int shift_layer = 0;
             double shift_p = 0.0;
-            if (shift_rate > 0.0) {  // (no process can give this throughput any light: none on this segment)
-                double gain = 0.0;
-                for (const Inelastic& P : w.inelastic)
-                    for (int k = 0; k < nb; ++k) gain += beta.v[k] * P.in_max.v[k];
-                if (!(gain > 0.0)) t_shift = kInf;
-            }
+            if (!(gain > 0.0)) t_shift = kInf;  // (no process can give this throughput any light)
             for (;;) {
                 const double t_next = t_cur + dt;
                 if (t_shift < t_next && t_shift < t_hit) {
@@ -942,7 +936,7 @@ void Scene::render_camera(int ci, uint64_t start, uint64_t count, int threads,
                 camera_ray(cam, px + 0.5 + fx, row + 0.5 + fy, &o, &d);
                 Components L = trace(o, d, cam.medium, false, false, rng, cnt, 1.0, true);
                 Spectrum comp[kNumComponents] = {Spectrum(), L.beam_surface, L.beam_volume, L.path, Spectrum(),
-                                                 L.inelastic[kRaman], L.inelastic[kChlorophyll]};
+                                                 L.inelastic[kRaman], L.inelastic[kChlorophyll], L.inelastic[kCDOM]};
                 accumulate(comp, nb, s, s2);
             }
         }

@@ -23,10 +23,10 @@ struct Spectrum {
     static Spectrum constant(double c) { Spectrum s; s.v.fill(c); return s; }
 };
 
-// Inelastic processes: Raman scattering by water, fluorescence by chlorophyll (their light is
-// reported apart: Components::inelastic[kind]).
-constexpr int kInelasticKinds = 2;
-enum InelasticKind { kRaman = 0, kChlorophyll = 1 };
+// Inelastic processes: Raman scattering by water, fluorescence by chlorophyll and by CDOM (their
+// light is reported apart: Components::inelastic[kind]).
+constexpr int kInelasticKinds = 3;
+enum InelasticKind { kRaman = 0, kChlorophyll = 1, kCDOM = 2 };
 
 // One inelastic process of a water body (Scene::set_water_inelastic): light of excitation band
 // i leaves it (the loss is in the band's absorption) and re-appears in emission band j, with

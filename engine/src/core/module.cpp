@@ -264,7 +264,7 @@ PYBIND11_MODULE(_core, m) {
             for (const Inelastic& Q : w.inelastic) w.inelastic_rate += Q.rate;
         }, py::arg("water"), py::arg("kind"), py::arg("coupling"), py::arg("rho"),
            "An inelastic process of the water body (kind 0: Raman scattering, 1: chlorophyll "
-           "fluorescence): coupling[(layer,) j, i] (m^-1) from excitation band i into emission band "
+           "fluorescence, 2: CDOM fluorescence): coupling[(layer,) j, i] (m^-1) from excitation band i into emission band "
            "j per unit of band i's spectral irradiance (one per layer, or one for all); phase "
            "function 3 / (4 pi (3 + rho)) (1 + rho cos^2). The beams' single scattering and the "
            "paths' own inelastic collisions (both integrators). Its loss is the caller's, in the "

@@ -19,7 +19,7 @@
 
 namespace photic {
 
-constexpr int kNumComponents = 7;  // total, beam_surface, beam_volume, path, beam_direct, raman, chlorophyll
+constexpr int kNumComponents = 8;  // total, beam_surface, beam_volume, path, beam_direct, raman, chlorophyll, cdom
 constexpr int kRoughFlatBeams = 16;  // facets per build below a rough flat ocean
 constexpr int kMaxBeams = 64;      // beams summed at one point (overlaps in strong caustics)
 // Exact mode (forward cone 0): the fraction of path continuations drawn around a beam's

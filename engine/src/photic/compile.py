@@ -67,26 +67,28 @@ def scene_band_groups(scene) -> list[slice]:
     return groups
 
 
-def raman_group_warnings(scene) -> list[str]:
-    """With settings.raman, the bands that lose Raman light to the band groups (a path
+def inelastic_group_warnings(scene) -> list[str]:
+    """The bands that lose inelastic light (Raman, fluorescence) to the band groups (a path
     carries only its group's bands; scene_band_groups)."""
-    from .inelastic import raman_active, raman_coupling
-    if not raman_active(scene):
-        return []
+    from .inelastic import water_processes
     groups = scene_band_groups(scene)
     if len(groups) < 2:
         return []
-    coupling = raman_coupling(scene.bands)
     group_of = np.empty(len(scene.bands), int)
     for g, sl in enumerate(groups):
         group_of[sl] = g
-    apart = coupling * (group_of[:, None] != group_of[None, :])
-    lost = [scene.bands[j].name for j in range(len(scene.bands)) if apart[j].sum() > 0.01 * coupling[j].sum()]
-    if not lost:
-        return []
-    return [f"settings.raman: the bands render in {len(groups)} groups (at most 16 bands, and bands whose "
-            f"scattering differs a hundredfold, render apart) and Raman light does not cross groups: bands "
-            f"{', '.join(repr(n) for n in lost)} lose what comes from another group"]
+    names = {0: "Raman", 1: "chlorophyll", 2: "CDOM"}
+    out = []
+    for kind in sorted({k for w in scene.water for k, _, _ in water_processes(scene, w)}):
+        coupling = sum(np.asarray(c).reshape(-1, *np.shape(c)[-2:]).sum(axis=0)
+                       for w in scene.water for k, c, _ in water_processes(scene, w) if k == kind)
+        apart = coupling * (group_of[:, None] != group_of[None, :])
+        lost = [scene.bands[j].name for j in range(len(scene.bands)) if apart[j].sum() > 0.01 * coupling[j].sum()]
+        if lost:
+            out.append(f"the bands render in {len(groups)} groups (at most 16 bands, and bands whose scattering "
+                       f"differs a hundredfold, render apart) and {names[kind]} light does not cross groups: bands "
+                       f"{', '.join(repr(n) for n in lost)} lose what comes from another group")
+    return out
 
 
 def _oriented_up(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:

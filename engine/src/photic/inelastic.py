@@ -1,4 +1,5 @@
-"""Inelastic scattering: Raman scattering by water, coupled across a scene's bands.
+"""Inelastic scattering: Raman scattering by water, fluorescence by chlorophyll and CDOM,
+coupled across a scene's bands.
 
 Raman scattering by water molecules (the O-H stretching band) re-emits light shifted by about
 3,400 cm^-1 in wavenumber to longer wavelengths. The model, as ocean-colour radiative transfer
@@ -72,12 +73,21 @@ def _band_nodes(center: float, width: float) -> np.ndarray:
     return np.maximum(center + width * ((np.arange(_NODES) + 0.5) / _NODES - 0.5), 1.0)
 
 
+def _key(bands) -> tuple:
+    return tuple((float(b.center_nm), float(b.width_nm)) for b in bands)
+
+
 def raman_coupling(bands) -> np.ndarray:
     """(nb, nb) coupling [emission j, excitation i] (m^-1) for ``bands`` (objects with
     ``center_nm`` and ``width_nm``): int over band i of b_R(l') f(l' -> l) dl', averaged over
     l in band j; 0 where no shift (within 4 widths of 3,400 cm^-1) reaches."""
-    centers = [float(b.center_nm) for b in bands]
-    widths = [float(b.width_nm) for b in bands]
+    return _raman_coupling(_key(bands)).copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _raman_coupling(bands: tuple) -> np.ndarray:  # (asked for warnings, band groups and each compile)
+    centers = [c for c, _ in bands]
+    widths = [w for _, w in bands]
     nb = len(bands)
     m = np.zeros((nb, nb))
     for i in range(nb):
@@ -96,13 +106,13 @@ def raman_auto(bands) -> bool:
     """Whether ``settings.raman = "auto"`` (the default) renders Raman scattering for these
     bands: where some band gets at least 5 % of its Raman light from the bands' own excitation
     (else there is nothing to see, and the scene renders as purely elastic)."""
-    return _raman_auto(tuple((float(b.center_nm), float(b.width_nm)) for b in bands))
+    return _raman_auto(_key(bands))
 
 
 @functools.lru_cache(maxsize=64)
 def _raman_auto(bands: tuple) -> bool:  # (asked per image and per unit: a few ms each)
     bs = [types.SimpleNamespace(center_nm=c, width_nm=w) for c, w in bands]
-    return len(bs) > 1 and bool((raman_coverage(bs) >= AUTO_COVERAGE).any() and raman_coupling(bs).any())
+    return len(bs) > 1 and bool((raman_coverage(bs) >= AUTO_COVERAGE).any() and _raman_coupling(bands).any())
 
 
 def raman_active(scene) -> bool:
@@ -168,20 +178,16 @@ def chlorophyll_coupling(bands, absorption, quantum_yield: float = CHL_YIELD, pe
     a = np.asarray(absorption, float)
     if a.ndim == 2:
         return np.stack([chlorophyll_coupling(bands, row, quantum_yield, peak_nm, fwhm_nm) for row in a])
-    nb = len(bands)
     lo, hi = CHL_EXCITATION_NM
-    m = np.zeros((nb, nb))
+    absorbed = np.zeros(len(bands))  # per excitation band: phi a_ph int lambda' d lambda' over its part in lo..hi
     for i, bi in enumerate(bands):
         c, w = float(bi.center_nm), float(bi.width_nm)
         left, right = max(c - 0.5 * w, lo), min(c + 0.5 * w, hi)
-        if not (right > left) or not (a[i] > 0):
-            continue
-        lam_ex = 0.5 * (left + right)  # int over the excitation part of lambda' d lambda' = its width x its mean
-        absorbed = quantum_yield * a[i] * (right - left) * lam_ex
-        for j, bj in enumerate(bands):
-            lem = _band_nodes(float(bj.center_nm), float(bj.width_nm))
-            m[j, i] = absorbed * float(np.mean(chlorophyll_emission(lem, peak_nm, fwhm_nm) / lem))
-    return m
+        if right > left and a[i] > 0:
+            absorbed[i] = quantum_yield * a[i] * (right - left) * 0.5 * (left + right)
+    emitted = np.array([np.mean(chlorophyll_emission(lem, peak_nm, fwhm_nm) / lem)  # per emission band: mean g / lambda
+                        for lem in (_band_nodes(float(b.center_nm), float(b.width_nm)) for b in bands)])
+    return np.outer(emitted, absorbed)
 
 
 def chlorophyll_coverage(bands, peak_nm: float = CHL_PEAK_NM, fwhm_nm: float = CHL_FWHM_NM) -> float:
@@ -194,14 +200,100 @@ def chlorophyll_coverage(bands, peak_nm: float = CHL_PEAK_NM, fwhm_nm: float = C
     return float(np.trapz(g * inside, grid) / np.trapz(g, grid))
 
 
+# ---- CDOM fluorescence -----------------------------------------------------------------------
+#
+# Coloured dissolved organic matter re-emits a small share of the light it absorbs, isotropically
+# and broadly, red of the excitation. The spectral fluorescence quantum efficiency eta(l', l)
+# (photons emitted per nm at l per photon absorbed at l') is Hawes' (1992) fit for fulvic acid
+# FA7, as HydroLight uses it (Mobley 1994, "Light and Water", 5.14, Fig. 5.11):
+#   eta = A0(l') exp(-[(1/l - A1/l' - B1) / (0.6 (A2/l' + B2))]^2),
+# a Gaussian in wavenumber whose centre and width follow the excitation, with A0 tabulated from
+# 310 to 490 nm (Hawes' Table 3) and tapered to 0 at 550 nm as HydroLight does. Like HydroLight,
+# the Gaussian is not cut at l = l' (its blue tail is a few % of the light). The quantum yield,
+# int eta dl, is 0.9-1.9 % over 310-490 nm (0 from 550 nm).
+
+HAWES_EXCITATION_NM = np.arange(310.0, 551.0, 20.0)
+HAWES_A0 = 1e-5 * np.array([5.18, 6.34, 8.00, 9.89, 9.39, 10.48, 12.59, 13.48, 13.61, 9.27, 4.00, 1.00, 0.0])  # nm^-1
+HAWES_A1, HAWES_A2 = 0.470, 0.407    # dimensionless
+HAWES_B1, HAWES_B2 = 8.077e-4, -4.57e-4  # nm^-1
+
+
+def cdom_efficiency(excitation_nm, emission_nm) -> np.ndarray:
+    """eta(l' -> l) (nm^-1): the photons emitted per nm at ``emission_nm`` per photon the CDOM
+    absorbs at ``excitation_nm`` (0 outside 310-550 nm excitation)."""
+    lx = np.asarray(excitation_nm, float)
+    lm = np.asarray(emission_nm, float)
+    a0 = np.interp(lx, HAWES_EXCITATION_NM, HAWES_A0, left=0.0, right=0.0)
+    z = (1.0 / lm - HAWES_A1 / lx - HAWES_B1) / (0.6 * (HAWES_A2 / lx + HAWES_B2))
+    return a0 * np.exp(-z * z)
+
+
+def cdom_quantum_yield(excitation_nm) -> np.ndarray:
+    """int eta(l' -> l) dl over all emission wavelengths: photons emitted per photon absorbed."""
+    lx = np.atleast_1d(np.asarray(excitation_nm, float))
+    nu = np.linspace(1.0 / 2000.0, 1.0 / 200.0, 20001)  # in wavenumber: d l = d nu / nu^2
+    eta = cdom_efficiency(lx[:, None], 1.0 / nu[None, :])
+    out = np.trapz(eta / nu ** 2, nu, axis=1)
+    return out if np.ndim(excitation_nm) else float(out[0])
+
+
+def cdom_coupling(bands, absorption, efficiency_scale: float = 1.0) -> np.ndarray:
+    """(nb, nb) coupling [emission j, excitation i] (m^-1), or (layers, nb, nb) for one
+    absorption spectrum per layer, as ``chlorophyll_coupling``'s: s a_CDOM[i] int over band i of
+    eta(l' -> l) l' / l dl', averaged over l in band j (isotropic phase function)."""
+    a = np.asarray(absorption, float)
+    if a.ndim == 2:
+        return np.stack([cdom_coupling(bands, row, efficiency_scale) for row in a])
+    return efficiency_scale * a[None, :] * _cdom_shape(_key(bands))
+
+
+@functools.lru_cache(maxsize=64)
+def _cdom_shape(bands: tuple) -> np.ndarray:  # int over band i of eta l' / l dl', mean over band j
+    nodes = [_band_nodes(c, w) for c, w in bands]
+    m = np.zeros((len(bands), len(bands)))
+    for i, ((_, wi), lex) in enumerate(zip(bands, nodes)):
+        if not np.any(np.interp(lex, HAWES_EXCITATION_NM, HAWES_A0, left=0.0, right=0.0) > 0):
+            continue
+        for j, lem in enumerate(nodes):
+            eta = cdom_efficiency(lex[None, :], lem[:, None]) * lex[None, :] / lem[:, None]
+            m[j, i] = float(np.mean(eta.sum(axis=1))) * wi / _NODES
+    return m
+
+
+def cdom_coverage(bands, absorption) -> float:
+    """The share of the photons the CDOM emits (for light flat in wavelength over the bands
+    that excite it, weighted by ``absorption``) whose wavelengths lie inside the bands."""
+    a = np.asarray(absorption, float)
+    a = a.mean(axis=0) if a.ndim == 2 else a
+    grid = np.linspace(250.0, 1200.0, 3801)
+    inside = np.zeros_like(grid, dtype=bool)
+    for b in bands:
+        inside |= np.abs(grid - float(b.center_nm)) <= 0.5 * float(b.width_nm)
+    emitted = np.zeros_like(grid)
+    for ai, b in zip(a, bands):
+        if ai > 0:
+            lex = _band_nodes(float(b.center_nm), float(b.width_nm))
+            emitted += ai * float(b.width_nm) * cdom_efficiency(lex[None, :], grid[:, None]).mean(axis=1)
+    total = np.trapz(emitted, grid)
+    return float(np.trapz(emitted * inside, grid) / total) if total > 0 else 1.0
+
+
+KIND_RAMAN, KIND_CHLOROPHYLL, KIND_CDOM = 0, 1, 2  # the core's InelasticKind
+
+
 def water_processes(scene, water) -> list[tuple[int, np.ndarray, float]]:
     """The inelastic processes of a water body for the core (Scene.set_water_inelastic):
-    (kind, coupling over all the scene's bands, phase rho); kind 0 Raman scattering (with
-    raman_active), 1 chlorophyll fluorescence (a water with ``fluorescence``)."""
+    (kind, coupling over all the scene's bands, phase rho): Raman scattering (with
+    raman_active), chlorophyll fluorescence (``fluorescence``), CDOM fluorescence
+    (``cdom_fluorescence``)."""
     out = []
     if raman_active(scene):
-        out.append((0, raman_coupling(scene.bands), RAMAN_RHO))
+        out.append((KIND_RAMAN, raman_coupling(scene.bands), RAMAN_RHO))
     f = getattr(water, "fluorescence", None)
     if f is not None:
-        out.append((1, chlorophyll_coupling(scene.bands, f.absorption, f.quantum_yield, f.peak_nm, f.fwhm_nm), 0.0))
+        out.append((KIND_CHLOROPHYLL, chlorophyll_coupling(scene.bands, f.absorption, f.quantum_yield,
+                                                           f.peak_nm, f.fwhm_nm), 0.0))
+    f = getattr(water, "cdom_fluorescence", None)
+    if f is not None:
+        out.append((KIND_CDOM, cdom_coupling(scene.bands, f.absorption, f.efficiency_scale), 0.0))
     return out

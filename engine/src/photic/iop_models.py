@@ -761,6 +761,47 @@ def _constituent(d: Any, bands, obj: str, prefix: str, base_dir, in_mixture: boo
                        for i, c in enumerate(comps)))
 
 
+def fluorescent_absorption(spec: Mapping, bands, *, obj: str = "iop model", prefix: str = "",
+                           base_dir: str | Path | None = None) -> dict[str, np.ndarray]:
+    """The parts of a model's absorption that fluoresce (photic.inelastic), per band (m^-1):
+    ``"phytoplankton"`` (the Case-1 models' particulate absorption a_p, all of it taken as
+    phytoplankton's; for the new variant, A_ph C^E_ph where its table file has the columns
+    ``A_ph`` and ``E_ph``, Bricaud et al. 1998's phytoplankton coefficients) and ``"cdom"``
+    (the ``cdom`` models' and the Case-1 models' CDOM).
+    Pure water, other particles and plugin models add nothing. Errors as ``iops_from_model``."""
+    band_list = _as_bands(bands)
+    zero = np.zeros(len(band_list))
+
+    def parts(d: Any, pre: str) -> tuple[np.ndarray, np.ndarray]:
+        name = d.get("model") if isinstance(d, Mapping) else None
+        if name == "cdom":
+            return zero, _constituent(d, band_list, obj, pre, base_dir, True).absorption
+        if name == "case1":
+            total = _constituent(d, band_list, obj, pre, base_dir, True).absorption
+            a_p = _constituent({**d, "cdom": "none"}, band_list, obj, pre, base_dir, True).absorption
+            return phytoplankton(d, pre, a_p), total - a_p
+        return parts_of_mixture(d, pre) if name == "mixture" else (zero, zero)
+
+    def phytoplankton(d: Mapping, pre: str, a_p: np.ndarray) -> np.ndarray:
+        # (the new variant's table may hold Bricaud et al.'s phytoplankton columns too)
+        if d.get("variant") != "new":
+            return a_p
+        table = _table_from_spec(_Spec(d, obj, pre), "chlorophyll_absorption", ("A", "E"), base_dir)
+        if not {"A_ph", "E_ph"} <= set(table.columns):
+            return a_p
+        chl = float(d["chlorophyll"])
+        return np.array([_band_mean(lambda wl: table("A_ph", wl) * chl ** table("E_ph", wl), x, table.wavelength_nm)
+                         for x in band_list])
+
+    def parts_of_mixture(d: Mapping, pre: str) -> tuple[np.ndarray, np.ndarray]:
+        got = [parts(c, f"{pre}components[{i}].") for i, c in enumerate(d.get("components") or [])]
+        return sum((g[0] for g in got), zero), sum((g[1] for g in got), zero)
+
+    iops_from_model(spec, bands, obj=obj, prefix=prefix, base_dir=base_dir)  # (errors first, named)
+    a_ph, a_cdom = parts({k: v for k, v in spec.items() if k != "water"}, prefix)
+    return {"phytoplankton": np.asarray(a_ph, float), "cdom": np.maximum(np.asarray(a_cdom, float), 0.0)}
+
+
 def iops_from_model(spec: Mapping, bands, *, obj: str = "iop model", prefix: str = "",
                     base_dir: str | Path | None = None) -> IOPs:
     """Per-band IOPs from a model description (format in the module docstring).

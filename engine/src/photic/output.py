@@ -26,6 +26,7 @@ COMPONENT_DESCRIPTIONS = {
     "beam_direct": "refracted sun reaching the radiometer directly, from the beams in closed form",
     "raman": "light Raman-scattered by water into this band, by the beams or along paths (settings.raman; else 0)",
     "chlorophyll": "light the phytoplankton's chlorophyll fluoresced into this band (a water's chlorophyll_fluorescence; else 0)",
+    "cdom": "light the water's CDOM fluoresced into this band (a water's cdom_fluorescence; else 0)",
 }
 
 

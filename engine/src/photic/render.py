@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .compile import compile_scene, raman_group_warnings, scene_band_groups
+from .compile import compile_scene, inelastic_group_warnings, scene_band_groups
 from .parameters import check_parameter
 from .safe_io import machine_memory
 from .estimates import (CameraSums, RadiometerSums, bin_counts, combine_round_sums,
@@ -35,10 +35,10 @@ UNITS_IRRADIANCE = "W m^-2 (per unit of the band's source spectrum, e.g. nm^-1)"
 IRRADIANCE_QUANTITIES = {"Ed", "Eu", "Eo", "Eod", "Eou"}
 
 
-COMPONENTS = ("beam_surface", "beam_volume", "path", "beam_direct", "raman", "chlorophyll")
+COMPONENTS = ("beam_surface", "beam_volume", "path", "beam_direct", "raman", "chlorophyll", "cdom")
 # A camera's component passes (beam_direct is a radiometer's own; raman with settings.raman,
-# chlorophyll where a water fluoresces).
-IMAGE_COMPONENTS = ("beam_surface", "beam_volume", "path", "raman", "chlorophyll")
+# chlorophyll and cdom where a water's chlorophyll or CDOM fluoresces).
+IMAGE_COMPONENTS = ("beam_surface", "beam_volume", "path", "raman", "chlorophyll", "cdom")
 
 
 def image_components(scene) -> tuple[str, ...]:
@@ -49,6 +49,8 @@ def image_components(scene) -> tuple[str, ...]:
         out += ("raman",)
     if any(getattr(w, "fluorescence", None) is not None for w in scene.water):
         out += ("chlorophyll",)
+    if any(getattr(w, "cdom_fluorescence", None) is not None for w in scene.water):
+        out += ("cdom",)
     return out
 
 
@@ -804,7 +806,7 @@ class Renderer:
                 core.cancel()
             if gi == 0:
                 check_sensors_off_boundaries(core, scene)
-                result.warnings = scene_warnings(scene) + raman_group_warnings(scene) + sensor_warnings(core, scene)
+                result.warnings = scene_warnings(scene) + inelastic_group_warnings(scene) + sensor_warnings(core, scene)
             for ri in range(len(radiometers)):
                 m = core.radiometer_medium(ri)
                 media[ri] = "air" if m < 0 else scene.water[m].name

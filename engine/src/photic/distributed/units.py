@@ -38,7 +38,7 @@ from ..render import (COMPONENTS, ImageResult, RenderResult, _mean_stderr, build
 from .job import Item, Job
 
 NC = len(COMPONENTS) + 1      # the core's layout: total, then the components
-CAMERA_COMPONENTS = NC        # (beam_direct is always zero for cameras; raman, chlorophyll where rendered)
+CAMERA_COMPONENTS = NC        # (beam_direct is always zero for cameras; raman, chlorophyll, cdom where rendered)
 
 
 @dataclass(frozen=True, order=True)

@@ -34,7 +34,7 @@ from . import checks, files, model, reading, schema_errors, validation, writing
 from .checks import FORMAT_VERSION, PHASE_FUNCTION_PARAMS, QUANTITIES, SceneError
 from .files import load_scene, save_scene
 from .model import (
-    Band, Camera, ChlorophyllFluorescence, GridField, IOPGrid, IOPProfile, IOPs, Material, MaterialTexture,
+    Band, Camera, CDOMFluorescence, ChlorophyllFluorescence, GridField, IOPGrid, IOPProfile, IOPs, Material, MaterialTexture,
     MeshObject, OceanSurface,
     PhaseFunction, Radiometer, RadiometerArray, ScatteringComponent, Scene, Settings, Sky, Sun,
     SurfaceRoughness, TriangleMesh, WaterBody,
@@ -48,7 +48,7 @@ __all__ = [
     "FORMAT_VERSION", "PHASE_FUNCTION_PARAMS", "QUANTITIES", "SceneError", "Band", "Material", "MaterialTexture",
     "PhaseFunction", "ScatteringComponent", "IOPs", "IOPProfile", "IOPGrid", "GridField", "TriangleMesh", "MeshObject",
     "OceanSurface", "SurfaceRoughness", "WaterBody", "Sun", "Sky", "Camera", "Radiometer", "RadiometerArray",
-    "Settings", "Scene", "ChlorophyllFluorescence", "check_closed_mesh", "load_scene", "save_scene", "scene_schema", "scene_warnings",
+    "Settings", "Scene", "ChlorophyllFluorescence", "CDOMFluorescence", "check_closed_mesh", "load_scene", "save_scene", "scene_schema", "scene_warnings",
 ]
 
 

@@ -418,6 +418,21 @@ class ChlorophyllFluorescence(_ArrayEq):
 
 
 @dataclass(eq=False)
+class CDOMFluorescence(_ArrayEq):
+    """Fluorescence of a water body's CDOM (photic.inelastic): of the light the CDOM absorbs
+    (``absorption``: a_CDOM per band, m^-1, part of the water's own absorption; one spectrum,
+    or one per layer of an ``iop_profile``), photons are re-emitted isotropically with Hawes'
+    (1992) spectral fluorescence quantum efficiency of fulvic acid FA7 (HydroLight's default),
+    times ``efficiency_scale`` (1: Hawes' values)."""
+
+    absorption: np.ndarray
+    efficiency_scale: float = 1.0
+
+    def __post_init__(self):
+        self.absorption = np.asarray(self.absorption, dtype=np.float64)
+
+
+@dataclass(eq=False)
 class WaterBody(_ArrayEq):
     """A water body: type ``"mesh"`` (closed ``mesh``) or ``"ocean"`` (``surface``, optional
     flat bottom at ``surface.z - bottom_depth`` made of ``bottom_material``). ``iops`` is an
@@ -433,6 +448,7 @@ class WaterBody(_ArrayEq):
     bottom_depth: float | None = None
     bottom_material: str | None = None
     fluorescence: ChlorophyllFluorescence | None = None  # chlorophyll fluorescence, or none
+    cdom_fluorescence: CDOMFluorescence | None = None  # CDOM fluorescence, or none
 
 
 @dataclass(eq=False)

@@ -18,7 +18,7 @@ from .checks import (
 from .model import (
     Band, Camera, GridField, IOPGrid, IOPProfile, IOPs, Material, MaterialTexture, MeshObject, OceanSurface,
     PhaseFunction, Radiometer, RadiometerArray, ScatteringComponent, Scene, Settings, Sky,
-    Sun, SurfaceRoughness, TriangleMesh, WaterBody, _default_bands, ChlorophyllFluorescence,
+    Sun, SurfaceRoughness, TriangleMesh, WaterBody, _default_bands, ChlorophyllFluorescence, CDOMFluorescence,
 )
 from .schema_errors import _check_schema
 
@@ -254,9 +254,29 @@ def _read_water(label: str, d: dict, bands: list, base_dir: Path) -> WaterBody:
     f = d.get("chlorophyll_fluorescence")
     if f is not None:
         w.fluorescence = ChlorophyllFluorescence(
-            np.asarray(f["absorption"], dtype=np.float64), float(f.get("quantum_yield", 0.02)),
-            float(f.get("peak_nm", 685.0)), float(f.get("fwhm_nm", 25.0)))
+            _fluorescent_absorption(label, d, "chlorophyll_fluorescence", "phytoplankton", bands, base_dir),
+            float(f.get("quantum_yield", 0.02)), float(f.get("peak_nm", 685.0)), float(f.get("fwhm_nm", 25.0)))
+    f = d.get("cdom_fluorescence")
+    if f is not None:
+        w.cdom_fluorescence = CDOMFluorescence(
+            _fluorescent_absorption(label, d, "cdom_fluorescence", "cdom", bands, base_dir),
+            float(f.get("efficiency_scale", 1.0)))
     return w
+
+
+def _fluorescent_absorption(label: str, d: dict, fld: str, part: str, bands: list, base_dir: Path) -> np.ndarray:
+    """A fluorescence's absorption: given, or (absent) its part of the water's iop_model."""
+    f = d[fld]
+    if not isinstance(f, dict):
+        raise SceneError(label, fld, f"must be an object, got {f!r}")
+    if "absorption" in f:
+        return np.asarray(f["absorption"], dtype=np.float64)
+    if "iop_model" not in d:
+        raise SceneError(label, f"{fld}.absorption", "is required unless the water has an 'iop_model' "
+                                                    f"(whose {part} absorption it then takes)")
+    from ..iop_models import fluorescent_absorption
+    return fluorescent_absorption(d["iop_model"], bands, obj=label, prefix="iop_model.",
+                                  base_dir=base_dir)[part]
 
 
 def _read_water_body(label: str, d: dict, bands: list, base_dir: Path) -> WaterBody:

@@ -153,20 +153,29 @@ def scene_warnings(s: Scene) -> list[str]:
             if float(c.position[2]) < floor:
                 out.append(f"camera '{c.name}': position z = {float(c.position[2]):g} m is below the "
                            f"sea floor (z = {floor:g} m): it sees nothing")
-    from ..inelastic import chlorophyll_coverage, raman_active
+    from ..inelastic import cdom_coupling, cdom_coverage, chlorophyll_coverage, raman_active
     if raman_active(s):
         out += _raman_warnings(s)
     for w in s.water:
         f = w.fluorescence
-        if f is None:
-            continue
-        seen = chlorophyll_coverage(s.bands, f.peak_nm, f.fwhm_nm)
-        if seen < 0.9:
-            out.append(f"water '{w.name}': its chlorophyll fluoresces around {f.peak_nm:g} nm (full width "
-                       f"{f.fwhm_nm:g} nm); the scene's bands hold {100 * seen:.0f} % of that light (add a band "
-                       f"there to see it)")
-        if isinstance(w.iops, IOPGrid):
-            out.append(f"water '{w.name}': chlorophyll fluorescence comes from its base IOPs' phytoplankton "
+        if f is not None:
+            seen = chlorophyll_coverage(s.bands, f.peak_nm, f.fwhm_nm)
+            if seen < 0.9:
+                out.append(f"water '{w.name}': its chlorophyll fluoresces around {f.peak_nm:g} nm (full width "
+                           f"{f.fwhm_nm:g} nm); the scene's bands hold {100 * seen:.0f} % of that light (add a "
+                           f"band there to see it)")
+        g = w.cdom_fluorescence
+        if g is not None:
+            seen = cdom_coverage(s.bands, g.absorption)
+            if seen < 0.9:
+                out.append(f"water '{w.name}': its CDOM fluoresces broadly red of the light it absorbs (310-550 nm); "
+                           f"the scene's bands hold {100 * seen:.0f} % of that light (bands from 400 to 700 nm "
+                           f"hold most of it)")
+            if not np.any(cdom_coupling(s.bands, g.absorption)):
+                out.append(f"water '{w.name}': cdom_fluorescence: no band between 310 and 550 nm with CDOM "
+                           f"absorption excites it: it adds nothing")
+        if isinstance(w.iops, IOPGrid) and (f is not None or g is not None):
+            out.append(f"water '{w.name}': fluorescence comes from its base IOPs' phytoplankton and CDOM "
                        f"(the absorption given), not from its grid's fields")
     return out
 
@@ -617,7 +626,7 @@ def _validate_water(label: str, w: WaterBody, nbands: int, materials: dict) -> N
         _validate_grid(label, w.iops, nbands)
     else:
         _validate_iops(label, w.iops, nbands)
-    if w.fluorescence is not None:
+    if w.fluorescence is not None or w.cdom_fluorescence is not None:
         _validate_fluorescence(label, w, nbands)
     if w.type == "mesh":
         for attr in ("surface", "bottom_depth", "bottom_material"):
@@ -642,32 +651,49 @@ def _base_absorptions(w: WaterBody) -> list[np.ndarray]:
 
 
 def _validate_fluorescence(label: str, w: WaterBody, nbands: int) -> None:
-    from .model import ChlorophyllFluorescence
-    f = w.fluorescence
-    fld = "chlorophyll_fluorescence"
-    if not isinstance(f, ChlorophyllFluorescence):
-        raise SceneError(label, fld, f"must be a ChlorophyllFluorescence, got {_show(f)}")
+    from .model import CDOMFluorescence, ChlorophyllFluorescence
     layers = _base_absorptions(w)
-    a = np.asarray(f.absorption)
-    if a.dtype == object or not (a.shape == (nbands,) or (len(layers) > 1 and a.shape == (len(layers), nbands))):
-        per_layer = f", or one list per layer ({len(layers)} x {nbands})" if len(layers) > 1 else ""
-        raise SceneError(label, f"{fld}.absorption", f"must hold one value per band ({nbands}){per_layer}, "
-                                                     f"got shape {_show(list(np.shape(a)))}")
-    a = a.astype(float)
-    if not np.all(np.isfinite(a)) or np.any(a < 0):
-        raise SceneError(label, f"{fld}.absorption", f"must be finite numbers >= 0 (m^-1), got {_show(a.tolist())}")
-    rows = a if a.ndim == 2 else [a] * len(layers)
-    for li, (row, total) in enumerate(zip(rows, layers)):
-        over = np.nonzero(row > total * (1.0 + 1e-12))[0]
-        if over.size:
+    parts = []  # (field, what, its absorption per layer)
+    for fld, cls, what in (("chlorophyll_fluorescence", ChlorophyllFluorescence, "phytoplankton's"),
+                           ("cdom_fluorescence", CDOMFluorescence, "CDOM's")):
+        f = w.fluorescence if cls is ChlorophyllFluorescence else w.cdom_fluorescence
+        if f is None:
+            continue
+        if not isinstance(f, cls):
+            raise SceneError(label, fld, f"must be a {cls.__name__}, got {_show(f)}")
+        a = np.asarray(f.absorption)
+        if a.dtype == object or not (a.shape == (nbands,) or (len(layers) > 1 and a.shape == (len(layers), nbands))):
+            per_layer = f", or one list per layer ({len(layers)} x {nbands})" if len(layers) > 1 else ""
+            raise SceneError(label, f"{fld}.absorption", f"must hold one value per band ({nbands}){per_layer}, "
+                                                         f"got shape {_show(list(np.shape(a)))}")
+        a = a.astype(float)
+        if not np.all(np.isfinite(a)) or np.any(a < 0):
+            raise SceneError(label, f"{fld}.absorption", f"must be finite numbers >= 0 (m^-1), got {_show(a.tolist())}")
+        parts.append((fld, what, a if a.ndim == 2 else [a] * len(layers)))
+        if cls is ChlorophyllFluorescence:
+            _check_real(label, f"{fld}.quantum_yield", f.quantum_yield, 0.0, 1.0)
+            _check_real(label, f"{fld}.peak_nm", f.peak_nm, 300.0, 1000.0)
+            _check_real(label, f"{fld}.fwhm_nm", f.fwhm_nm, 0.0, 200.0, lo_open=True)
+        else:  # (Hawes' yield is at most 1.9 %: 50 x makes it about 1)
+            _check_real(label, f"{fld}.efficiency_scale", f.efficiency_scale, 0.0, 50.0)
+    # each, and both together, are parts of the water's absorption
+    for li, total in enumerate(layers):
+        where = f" in layer {li}" if len(layers) > 1 else ""
+        summed = np.zeros(nbands)
+        for fld, what, rows in parts:
+            summed = summed + rows[li]
+            over = np.nonzero(rows[li] > total * (1.0 + 1e-12))[0]
+            if over.size:
+                k = int(over[0])
+                raise SceneError(label, f"{fld}.absorption", f"is the {what} part of the water's absorption, so at "
+                                                             f"most it: band {k}{where} has {rows[li][k]:g} m^-1 "
+                                                             f"against the water's {total[k]:g}")
+        over = np.nonzero(summed > total * (1.0 + 1e-12))[0]
+        if len(parts) == 2 and over.size:
             k = int(over[0])
-            where = f" in layer {li}" if len(layers) > 1 else ""
-            raise SceneError(label, f"{fld}.absorption", f"is the phytoplankton's part of the water's absorption, "
-                                                         f"so at most it: band {k}{where} has {row[k]:g} m^-1 "
-                                                         f"against the water's {total[k]:g}")
-    _check_real(label, f"{fld}.quantum_yield", f.quantum_yield, 0.0, 1.0)
-    _check_real(label, f"{fld}.peak_nm", f.peak_nm, 300.0, 1000.0)
-    _check_real(label, f"{fld}.fwhm_nm", f.fwhm_nm, 0.0, 200.0, lo_open=True)
+            raise SceneError(label, "cdom_fluorescence.absorption",
+                             f"with chlorophyll_fluorescence.absorption is more than the water's absorption: band {k}"
+                             f"{where} has {summed[k]:g} m^-1 of phytoplankton and CDOM against the water's {total[k]:g}")
 
 
 def _validate_surface(label: str, surface: Any) -> None:

@@ -97,6 +97,10 @@ def _water_to_dict(w: WaterBody) -> dict:
         d["chlorophyll_fluorescence"] = {"absorption": np.asarray(f.absorption, float).tolist(),
                                          "quantum_yield": float(f.quantum_yield), "peak_nm": float(f.peak_nm),
                                          "fwhm_nm": float(f.fwhm_nm)}
+    if w.cdom_fluorescence is not None:
+        f = w.cdom_fluorescence
+        d["cdom_fluorescence"] = {"absorption": np.asarray(f.absorption, float).tolist(),
+                                  "efficiency_scale": float(f.efficiency_scale)}
     return d
 
 
