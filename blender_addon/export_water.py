@@ -1,7 +1,7 @@
 """Water objects as the engine's water bodies: a closed mesh ('Water Body') or an ocean
 surface ('Water Surface': flat, a wave model or a mesh patch, with its roughness and optional
-bottom), each with its refractive index and its IOPs (homogeneous: ``export_iops``; a depth
-profile or a 3-D grid: ``natural_waters``)."""
+bottom), each with its refractive index, its IOPs (homogeneous: ``export_iops``; a depth
+profile or a 3-D grid: ``natural_waters``) and its fluorescence (``export_fluorescence``)."""
 from __future__ import annotations
 
 import math
@@ -10,6 +10,7 @@ import numpy as np
 
 from . import export_iops, surface_modifiers
 from .export_geometry import mesh_data
+from .export_fluorescence import add_fluorescence
 from .export_materials import material
 from .export_values import ExportError, _obj, blender_float
 from .mesh_export import drop_degenerate, transform
@@ -59,9 +60,11 @@ def add_water_body(ex, obj, key, matrix, index):
                                  "normals)", exc.message) from None
     name = obj.name if index == 0 else f"{obj.name} #{index + 1}"
     # Depths of a profile count from the top of the body; a grid defaults to its bounds.
-    iops = water_iops(ex, obj, float(world[:, 2].max()),
-                      bounds=(world.min(axis=0), world.max(axis=0)))
-    ex.water.append(S.WaterBody(name, "mesh", iops, ior=water_ior(ex, obj), mesh=mesh))
+    level = float(world[:, 2].max())
+    iops = water_iops(ex, obj, level, bounds=(world.min(axis=0), world.max(axis=0)))
+    water = S.WaterBody(name, "mesh", iops, ior=water_ior(ex, obj), mesh=mesh)
+    add_fluorescence(ex, obj, water, level)
+    ex.water.append(water)
     ex.info.triangles += len(t)
 
 
@@ -180,7 +183,9 @@ def add_water_surface(ex, obj, key, matrix):
                     f"the flat bottom renders its mean colour (model the sea floor as a mesh with "
                     f"UVs to render the texture)", ("OBJECT", obj.name), ("MATERIAL", p.bottom_material.name))
     # Depths of a profile count from the mean sea level (a patch's mean height).
-    ex.water.append(S.WaterBody(obj.name, "ocean", water_iops(ex, obj, float(surface.z)),
-                                ior=water_ior(ex, obj),
-                                surface=surface, bottom_depth=bottom_depth,
-                                bottom_material=bottom_material))
+    level = float(surface.z)
+    water = S.WaterBody(obj.name, "ocean", water_iops(ex, obj, level), ior=water_ior(ex, obj),
+                        surface=surface, bottom_depth=bottom_depth,
+                        bottom_material=bottom_material)
+    add_fluorescence(ex, obj, water, level)
+    ex.water.append(water)

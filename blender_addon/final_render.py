@@ -32,6 +32,11 @@ COMPONENT_PASSES = (("Photic Beam Surface", "beam_surface"),
 VARIANCE_PASS = "Photic Variance"
 PASS_NAMES = tuple(p for p, _ in COMPONENT_PASSES) + (VARIANCE_PASS,)
 RAMAN_PASS = "Photic Raman"  # (when a render has Raman light: light Raman-scattered by water)
+CHLOROPHYLL_PASS, CDOM_PASS = "Photic Chlorophyll", "Photic CDOM"
+#: Where a water fluoresces (Object > Photic > Inelastic Light): (pass, engine component, the
+#: water object's property that turns it on).
+FLUORESCENCE_PASSES = ((CHLOROPHYLL_PASS, "chlorophyll", "chl_fluorescence"),
+                       (CDOM_PASS, "cdom", "cdom_fluorescence"))
 ALBEDO_PASS, NORMAL_PASS, NOISY_PASS = "Denoising Albedo", "Denoising Normal", "Noisy Image"
 UPDATE_INTERVAL_S = 0.5
 FRAME_INTERVAL_S = 0.9  # the render view's image at most this often (each costs a full-image write)
@@ -319,15 +324,32 @@ def raman_rendered(props) -> bool:
     return raman_auto([photic.scene.Band(*b) for b in bands])
 
 
+def fluorescing(scene, prop: str) -> bool:
+    """Whether a render of ``scene`` has a water whose fluorescence ``prop`` is on (the engine
+    then gives its component): a water object of the scene, not disabled in renders, with it
+    on. (A water only in a collection excluded from the view layer still counts: its pass is
+    then declared and left black.)"""
+    from .natural_waters import WATER_ROLES
+    for obj in scene.objects:
+        p = getattr(getattr(obj, "original", obj), "photic", None)
+        if p is not None and p.role in WATER_ROLES and getattr(p, prop) and not obj.hide_render:
+            return True
+    return False
+
+
 def render_passes(scene) -> list[tuple[str, str, str]]:
     """(name, channels, type) of the passes a render of ``scene`` writes: Combined, the
-    components and variance, the Raman pass when it has Raman light, and with Denoise or
-    Denoising Data the denoising passes (named as Cycles names them, so the compositor's
-    Denoise node takes them as it takes Cycles')."""
+    components and variance, the Raman pass when it has Raman light, the Chlorophyll and CDOM
+    passes when a water fluoresces, and with Denoise or Denoising Data the denoising passes
+    (named as Cycles names them, so the compositor's Denoise node takes them as it takes
+    Cycles')."""
     out = [("Combined", "RGBA", "COLOR")] + [(n, "RGB", "COLOR") for n in PASS_NAMES]
     p = getattr(scene, "photic", None) if scene is not None else None
     if p is not None and raman_rendered(p):
         out.append((RAMAN_PASS, "RGB", "COLOR"))
+    if p is not None:
+        out += [(name, "RGB", "COLOR") for name, _, prop in FLUORESCENCE_PASSES
+                if fluorescing(scene, prop)]
     if p is not None and (p.denoise or p.denoising_data):
         out += [(ALBEDO_PASS, "RGB", "COLOR"), (NORMAL_PASS, "XYZ", "VECTOR")]
     if p is not None and p.denoise:
@@ -336,10 +358,12 @@ def render_passes(scene) -> list[tuple[str, str, str]]:
 
 
 def image_passes(image, bands) -> dict:
-    """The Combined, component and variance passes of an engine ``ImageResult``, and with its
-    denoising guides the Denoising Albedo and Normal passes."""
+    """The Combined, component (with Raman and fluorescence where the image has them) and
+    variance passes of an engine ``ImageResult``, and with its denoising guides the Denoising
+    Albedo and Normal passes."""
     out = {"Combined": bandmod.bands_to_rgba(image.mean, bands)}
-    for name, comp in (*COMPONENT_PASSES, (RAMAN_PASS, "raman")):
+    for name, comp in (*COMPONENT_PASSES, (RAMAN_PASS, "raman"),
+                       *((name, comp) for name, comp, _ in FLUORESCENCE_PASSES)):
         if comp in image.components:
             out[name] = bandmod.bands_to_rgba(image.components[comp], bands)[:, :, :3]
     out[VARIANCE_PASS] = bandmod.bands_to_rgba(image.variance, bands, variance=True)[:, :, :3]

@@ -7,6 +7,7 @@ exactly, as text). The example .blend files are made with it.
 from __future__ import annotations
 
 import math
+import warnings
 
 import bpy
 import numpy as np
@@ -260,6 +261,61 @@ def _field_props(p, owner: str, g) -> None:
         _unit_props(item, f.unit)
 
 
+#: (settings prefix, WaterBody attribute and scene-file field, (property, field) of its values)
+_FLUORESCENCE = (("chl", "fluorescence", "chlorophyll_fluorescence",
+                  (("chl_quantum_yield", "quantum_yield"), ("chl_emission_peak_nm", "peak_nm"),
+                   ("chl_emission_fwhm_nm", "fwhm_nm"))),
+                 ("cdom", "cdom_fluorescence", "cdom_fluorescence",
+                  (("cdom_efficiency_scale", "efficiency_scale"),)))
+
+
+def _fluorescence_props(p, w, notes: list) -> None:
+    """A water's fluorescence as its Inelastic Light settings. Every water imports with its
+    IOPs as coefficients (above), so each absorption that fluoresces becomes a share per band of
+    the water's own absorption (of a grid's base); what such a share, or a setting's range,
+    cannot hold is added to ``notes``, naming the water and the field."""
+    owner = f"water '{w.name}'"
+    base = w.iops.iops if hasattr(w.iops, "density") else w.iops
+    water_a = np.array([x.absorption for x in getattr(base, "layers", [base])], float)
+    for key, attr, fld, values in _FLUORESCENCE:
+        f = getattr(w, attr)
+        if f is None:
+            continue
+        setattr(p, f"{key}_fluorescence", True)
+        for prop, name in values:
+            value = float(getattr(f, name))
+            setattr(p, prop, value)
+            if not math.isclose(getattr(p, prop), value, rel_tol=1e-6):  # (clamped to its range)
+                notes.append(f"{owner}, {fld}.{name}: {value:g} is outside the range of "
+                             f"Photic > {p.bl_rna.properties[prop].name}: imported as "
+                             f"{getattr(p, prop):g}")
+        share = _share(owner, fld, f.absorption, water_a, notes)
+        setattr(p, f"{key}_fraction_bands", _numbers(share))
+
+
+def _share(owner: str, fld: str, absorption, water_a: np.ndarray, notes: list) -> np.ndarray:
+    """The share per band of the water's absorption ``water_a`` (one row per layer) that a
+    fluorescence's ``absorption`` (one spectrum, or one per layer) is: of all layers' together
+    where it differs from layer to layer."""
+    a = np.broadcast_to(np.asarray(absorption, float), water_a.shape)
+    total = water_a.sum(axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = np.where(total > 0, a.sum(axis=0) / total, 0.0)
+    problems = []
+    if np.any((water_a == 0) & (a > 0)):
+        problems.append("is above 0 in a band where the water absorbs nothing")
+    elif not np.allclose(share * water_a, a, rtol=1e-12, atol=0.0):
+        problems.append("is not the same share of the water's absorption in every layer")
+    if np.any(share > 1):
+        problems.append("is above the water's absorption")
+        share = np.minimum(share, 1.0)
+    if problems:
+        notes.append(f"{owner}, {fld}.absorption: {'; '.join(problems)}, which a share of the "
+                     f"water's absorption per band cannot hold: imported as the shares "
+                     f"{_numbers(share)}")
+    return share
+
+
 def _water_props(obj, w, level: float, bands, collection) -> None:
     """The water's IOPs (homogeneous, a profile or a grid) and refractive index."""
     if hasattr(w.iops, "z_top"):
@@ -271,11 +327,14 @@ def _water_props(obj, w, level: float, bands, collection) -> None:
     obj.photic.ior = w.ior
 
 
-def import_scene(scene, bscene=None, collection=None) -> dict:
+def import_scene(scene, bscene=None, collection=None, notes: list | None = None) -> dict:
     """Create the objects of a ``photic.scene.Scene`` in ``bscene`` (default: the context's).
 
     Returns the created objects by the engine object's name (an instanced mesh's: the first of
-    its copies, linked duplicates sharing its mesh data-block)."""
+    its copies, linked duplicates sharing its mesh data-block). What is imported other than the
+    file has it (e.g. a fluorescence whose absorption no share of the water's holds) is added
+    to ``notes`` as text naming the object and the field (without a list: Python warnings)."""
+    told = [] if notes is None else notes
     bscene = bscene or bpy.context.scene
     collection = collection or bscene.collection
     bands = [(b.name, b.center_nm, b.width_nm) for b in scene.bands]
@@ -331,6 +390,7 @@ def import_scene(scene, bscene=None, collection=None) -> dict:
         # Depths of a profile count from the mean sea level or the top of a body.
         level = float(np.max(w.mesh.vertices[:, 2])) if w.type == "mesh" else float(w.surface.z)
         _water_props(obj, w, level, bands, collection)
+        _fluorescence_props(obj.photic, w, told)
         obj.display_type = "WIRE"
         created[w.name] = obj
     if scene.sun is not None:
@@ -404,4 +464,7 @@ def import_scene(scene, bscene=None, collection=None) -> dict:
             obj.photic.half_angle = math.radians(a.half_angle_deg)
         collection.objects.link(obj)
         created[a.name] = obj
+    if notes is None:
+        for text in told:
+            warnings.warn(f"Photic import: {text}", stacklevel=2)
     return created

@@ -105,10 +105,11 @@ def read_csv(owner: str, prop: str, text: str, where: str) -> tuple[list[str], n
 
 # -- depth profiles --------------------------------------------------------------------------
 
-def chlorophyll_profile(ex, obj, level: float):
-    """A Gaussian chlorophyll maximum through the Case-1 model, averaged into layers."""
-    S = ex.photic.scene
-    from photic.profiles import gaussian_chlorophyll, profile_from_function
+def chlorophyll_model(obj, level: float):
+    """(model, tops, where, prop) of a Gaussian chlorophyll maximum: ``model(z)`` the Case-1
+    model description at height z, ``tops`` the layer tops, and where the chlorophyll-specific
+    absorption table came from and the property naming it."""
+    from photic.profiles import gaussian_chlorophyll
     p = obj.original.photic
     owner = _obj(obj.name)
     columns = ("a_star",) if p.case1_variant == "classic" else ("A", "E")
@@ -144,6 +145,16 @@ def chlorophyll_profile(ex, obj, level: float):
         return {"model": "case1", "variant": p.case1_variant, "chlorophyll": chl(z),
                 "chlorophyll_absorption": table}
 
+    return model, tops, where, prop
+
+
+def chlorophyll_profile(ex, obj, level: float):
+    """A Gaussian chlorophyll maximum through the Case-1 model, averaged into layers."""
+    S = ex.photic.scene
+    from photic.profiles import profile_from_function
+    p = obj.original.photic
+    owner = _obj(obj.name)
+    model, tops, where, prop = chlorophyll_model(obj, level)
     try:
         profile = profile_from_function(model, tops, [S.Band(*b) for b in ex.bands])
     except S.SceneError as exc:

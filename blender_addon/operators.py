@@ -226,13 +226,17 @@ class PHOTIC_OT_import_scene(bpy.types.Operator):
             self.report({"ERROR"}, engine_error())
             return {"CANCELLED"}
         from .importer import import_scene
+        notes = []
         try:
             scene = photic.scene.load_scene(bpy.path.abspath(self.filepath))
-            created = import_scene(scene, context.scene)
+            created = import_scene(scene, context.scene, notes=notes)
         except (OSError, ValueError) as exc:  # SceneError is a ValueError
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
-        self.report({"INFO"}, f"Photic scene '{scene.name}': {len(created)} objects created")
+        for text in notes:  # (what the objects hold other than the file has it)
+            self.report({"WARNING"}, text)
+        self.report({"INFO"}, f"Photic scene '{scene.name}': {len(created)} objects created"
+                              + (f", {len(notes)} warning(s)" if notes else ""))
         return {"FINISHED"}
 
     def invoke(self, context, event):

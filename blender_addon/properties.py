@@ -388,6 +388,61 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
                     "like the first, by its name: an array of the Density File or a grid of "
                     "the Volume object")
 
+    # Inelastic light: the water's fluorescence (photic.inelastic); off in files from before it.
+    # The absorption that fluoresces comes from the water's IOP model where it has one, else
+    # from the shares below (export_fluorescence).
+    chl_fluorescence: BoolProperty(
+        name="Chlorophyll Fluorescence", default=False,
+        description="The phytoplankton re-emit the quantum yield's share of the photons their "
+                    "chlorophyll absorbs (370-690 nm), isotropically around the emission peak: "
+                    "the Photic Chlorophyll pass and the tables' component 'chlorophyll'. Their "
+                    "absorption: the IOP model's phytoplankton (Case 1, a Chlorophyll Maximum "
+                    "profile), or the Phytoplankton Share of the coefficients' absorption")
+    chl_quantum_yield: FloatProperty(
+        name="Quantum Yield", default=0.02, min=0.0, max=1.0, precision=3,
+        description="Photons emitted per photon the chlorophyll absorbs (dimensionless), in "
+                    "[0, 1]; natural waters about 0.01-0.05")
+    chl_emission_peak_nm: FloatProperty(
+        name="Peak (nm)", default=685.0, min=300.0, max=1000.0, precision=1,
+        description="Centre of the fluorescence's Gaussian emission (nm); chlorophyll a in "
+                    "vivo: 685 nm")
+    chl_emission_fwhm_nm: FloatProperty(
+        name="FWHM (nm)", default=25.0, min=0.1, max=200.0, precision=1,
+        description="Full width at half maximum of the emission (nm), in (0, 200]")
+    chl_fraction: FloatProperty(
+        name="Phytoplankton Share of a", default=0.0, min=0.0, max=1.0, precision=3,
+        description="For IOPs given as coefficients (or a layer table): the share of the "
+                    "water's total absorption a (dimensionless, 0-1, pure water included) that "
+                    "is the phytoplankton's, in every band unless given per band")
+    chl_fraction_bands: StringProperty(
+        name="Share per Band",
+        description="The phytoplankton's share of the water's absorption, one per band in "
+                    "[0, 1], separated by commas; empty: 'Phytoplankton Share of a' in every "
+                    "band")
+    cdom_fluorescence: BoolProperty(
+        name="CDOM Fluorescence", default=False,
+        description="Coloured dissolved organic matter re-emits some of the light it absorbs "
+                    "(310-550 nm), broadly and red of the excitation, with Hawes' (1992) "
+                    "quantum efficiency of fulvic acid: the Photic CDOM pass and the tables' "
+                    "component 'cdom'. Its absorption: the IOP model's CDOM (CDOM and Case-1 "
+                    "models, the water types' CDOM), or the CDOM Share of the coefficients' "
+                    "absorption")
+    cdom_efficiency_scale: FloatProperty(
+        name="Efficiency Scale", default=1.0, min=0.0, max=50.0, soft_max=5.0,
+        precision=3,
+        description="Factor on Hawes' (1992) spectral fluorescence quantum efficiency "
+                    "(dimensionless, in [0, 50]; 1: Hawes' values, a quantum yield of about "
+                    "1-2 %)")
+    cdom_fraction: FloatProperty(
+        name="CDOM Share of a", default=0.0, min=0.0, max=1.0, precision=3,
+        description="For IOPs given as coefficients (or a layer table): the share of the "
+                    "water's total absorption a (dimensionless, 0-1, pure water included) that "
+                    "is CDOM's, in every band unless given per band")
+    cdom_fraction_bands: StringProperty(
+        name="Share per Band",
+        description="CDOM's share of the water's absorption, one per band in [0, 1], "
+                    "separated by commas; empty: 'CDOM Share of a' in every band")
+
     # Radiometers
     quantity: EnumProperty(name="Quantity", items=QUANTITIES, default="Ed",
                            description="What the radiometer measures")

@@ -294,6 +294,41 @@ class PHOTIC_PT_iop_variation(PhoticPanel, bpy.types.Panel):
             _draw_further_fields(layout, p)
 
 
+class PHOTIC_PT_inelastic(PhoticPanel, bpy.types.Panel):
+    """A water's fluorescence: chlorophyll's and CDOM's (export_fluorescence)."""
+
+    bl_label = "Inelastic Light"
+    bl_context = "object"
+    bl_parent_id = "PHOTIC_PT_object"
+
+    @classmethod
+    def poll(cls, context):
+        return PHOTIC_PT_object.poll(context) and \
+            context.object.photic.role in WATER_ROLES
+
+    def draw(self, context):
+        from .export_fluorescence import from_model
+        layout = self.layout
+        layout.use_property_split = True
+        p = context.object.photic
+        modelled = from_model(p)
+        layout.prop(context.scene.photic, "raman")  # (Raman scattering by water: one setting per scene)
+        for key, fields, what in (
+                ("chl", ("chl_quantum_yield", "chl_emission_peak_nm", "chl_emission_fwhm_nm"),
+                 "the IOP model's phytoplankton (a_ph, m⁻¹)"),
+                ("cdom", ("cdom_efficiency_scale",), "the IOP model's CDOM (a_CDOM, m⁻¹)")):
+            layout.prop(p, f"{key}_fluorescence")
+            col = layout.column()
+            col.active = getattr(p, f"{key}_fluorescence")
+            for name in fields:
+                col.prop(p, name)
+            if modelled:
+                col.label(text=f"Absorption: {what}", icon="INFO")
+            else:
+                _value_or_bands(col, p, f"{key}_fraction", f"{key}_fraction_bands")
+        layout.label(text="Passes: Photic Raman, Photic Chlorophyll, Photic CDOM")
+
+
 def _draw_iops(layout, q, source: str, model: str, prefix: str) -> None:
     """IOPs as chosen by the property ``source``: the model description ``model``, or the
     coefficients and phase function named ``prefix`` + absorption, scattering, ... (the
@@ -445,5 +480,5 @@ class PHOTIC_PT_world(PhoticPanel, bpy.types.Panel):
 
 
 classes = (PHOTIC_PT_render, PHOTIC_PT_bands, PHOTIC_PT_beams, PHOTIC_PT_radiometer_results,
-           PHOTIC_PT_object, PHOTIC_PT_iop_variation, PHOTIC_PT_material, PHOTIC_PT_light,
-           PHOTIC_PT_world)
+           PHOTIC_PT_object, PHOTIC_PT_iop_variation, PHOTIC_PT_inelastic, PHOTIC_PT_material,
+           PHOTIC_PT_light, PHOTIC_PT_world)
