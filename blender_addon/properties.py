@@ -652,7 +652,7 @@ class PhoticSceneProperties(bpy.types.PropertyGroup):
                                 "the bands (else purely elastic)", "NONE", 2),
                ("ON", "On", "Raman scattering by water in any scene", "NONE", 1),
                ("OFF", "Off", "Purely elastic: no Raman scattering", "NONE", 0)],
-        description="Raman scattering by water: light shifted by 3,400 cm^-1 into the scene's "
+        description="Raman scattering by water: light shifted by about 3,400 cm^-1 into the scene's "
                     "longer-wavelength bands (b_R 2.7e-4 m^-1 at 488 nm excitation), in both "
                     "integrators; the component 'raman' of the radiometer tables and the "
                     "Photic Raman pass")

@@ -1,6 +1,8 @@
 """Raman scattering by water (issue 42, first process): the spectral model against its own
 closed forms, and the hybrid integrator's Raman light against the closed form of single
 inelastic scattering of a collimated beam in water that does not scatter elastically."""
+import math
+
 import numpy as np
 import pytest
 
@@ -23,12 +25,33 @@ def test_raman_phase_function_is_normalised():
 def test_raman_coefficient_and_shift():
     assert inelastic.raman_b(488.0) == pytest.approx(2.7e-4)
     assert inelastic.raman_b(400.0) / inelastic.raman_b(500.0) == pytest.approx(1.25 ** 5.5)
-    # 3,400 cm^-1 below 488 nm's 20,492 cm^-1: 585.1 nm
-    assert inelastic.excitation_nm(1e7 / (1e7 / 488.0 - 3400.0)) == pytest.approx(488.0, abs=1e-9)
-    assert inelastic.excitation_nm(585.08) == pytest.approx(488.0, abs=0.01)
+    # the mean shift, 3,383.75 cm^-1, below 488 nm's 20,492 cm^-1: 584.5 nm
+    assert inelastic.RAMAN_SHIFT_CM == pytest.approx(3383.75)
+    assert inelastic.excitation_nm(1e7 / (1e7 / 488.0 - inelastic.RAMAN_SHIFT_CM)) == pytest.approx(488.0, abs=1e-9)
+    assert inelastic.excitation_nm(584.52) == pytest.approx(488.0, abs=0.01)
     lam = np.linspace(450.0, 750.0, 30_001)
     for ex in (420.0, 488.0, 550.0):  # the emission density integrates to 1 over wavelength
         assert np.trapz(inelastic.emission_density(ex, lam), lam) == pytest.approx(1.0, abs=1e-6)
+
+
+def test_the_shift_is_walrafens_four_gaussians():
+    """In wavenumber, the emission is Walrafen's four Gaussians (weights 0.41, 0.39, 0.10, 0.10
+    at 3,250, 3,425, 3,530, 3,625 cm^-1, full widths 210, 175, 140, 140): its mean and its
+    value at each centre against the sum written out."""
+    ex = 488.0
+    shift = np.linspace(2000.0, 5000.0, 300_001)
+    lam = 1e7 / (1e7 / ex - shift)
+    per_cm = inelastic.emission_density(ex, lam) * lam ** 2 / 1e7  # per nm -> per cm^-1
+    assert np.trapz(per_cm, shift) == pytest.approx(1.0, abs=1e-9)
+    assert np.trapz(per_cm * shift, shift) == pytest.approx(3383.75, abs=1e-6)
+
+    def walrafen(k):
+        w, c, f = [0.41, 0.39, 0.10, 0.10], [3250, 3425, 3530, 3625], [210, 175, 140, 140]
+        return sum(wi * 2 * math.sqrt(math.log(2) / math.pi) / fi * math.exp(-4 * math.log(2) * ((k - ci) / fi) ** 2)
+                   for wi, ci, fi in zip(w, c, f))
+    for k in (3250.0, 3425.0, 3530.0, 3625.0, 3000.0):
+        x = 1e7 / (1e7 / ex - k)
+        assert float(inelastic.emission_density(ex, x)) * x ** 2 / 1e7 == pytest.approx(walrafen(k), rel=1e-12)
 
 
 def test_the_coupling_keeps_the_energy_raman_scattering_takes():
@@ -79,7 +102,7 @@ def _closed_form_upwelling(mu):
     return inelastic.raman_phase(mu) * m[1, 0] * e450 / (c[0] * mu + c[1])
 
 
-def test_raman_radiance_of_a_collimated_beam_matches_its_closed_form():
+def test_raman_radiance_of_a_collimated_beam_matches_its_closed_form(zscore):
     """Upwelling radiance at 1 m (a 5 deg cap looking straight down) in water without elastic
     scattering, the sun at the zenith in band 450 only: all of band 531's light is the beam's
     Raman scattering, in closed form."""
@@ -91,21 +114,23 @@ def test_raman_radiance_of_a_collimated_beam_matches_its_closed_form():
     value, se = float(r.mean[0, 1]), float(r.stderr[0, 1])
     assert value == pytest.approx(float(r.components["raman"][0][0, 1]))  # all of it Raman
     assert se < 0.01 * value
+    zscore("Raman Lu 531, beam (5 deg cap, sun 0 deg)", value, expect, se)
     assert abs(value - expect) < 3.5 * se + 1e-3 * expect, (value, se, expect)
     assert r.mean[0, 0] == 0.0  # nothing reaches band 450 going up (no elastic scattering)
     assert inelastic.raman_coupling(BANDS)[0].max() == 0.0  # (nor from 531 nm: longer)
 
 
-def test_raman_upwelling_irradiance_matches_its_closed_form():
+def test_raman_upwelling_irradiance_matches_its_closed_form(zscore):
     scene = _sea(BANDS, A, [1.0, 0.0], "Eu")
     r = render(scene, radiometer_samples=200_000, seed=6, threads=2).radiometers[0]
     mu = np.linspace(0.0, 1.0, 20_001)
     expect = 2 * np.pi * np.trapz(_closed_form_upwelling(mu) * mu, mu)
     value, se = float(r.mean[0, 1]), float(r.stderr[0, 1])
+    zscore("Raman Eu 531, beam (sun 0 deg)", value, expect, se)
     assert abs(value - expect) < 3.5 * se + 1e-3 * expect, (value, se, expect)
 
 
-def test_raman_radiance_under_an_oblique_sun_matches_its_closed_form():
+def test_raman_radiance_under_an_oblique_sun_matches_its_closed_form(zscore):
     """The sun at 40 deg: the refracted beam (at theta_w) carries E0 T(40) cos(40) / cos(theta_w)
     normal to itself and is attenuated over z / cos(theta_w); the nadir radiance at 1 m is
     p_R(cos theta_w) M E(1 m) / (c_i / cos(theta_w) + c_j), with the cap's average."""
@@ -122,6 +147,7 @@ def test_raman_radiance_under_an_oblique_sun_matches_its_closed_form():
     scene = _sea(BANDS, A, [1.0, 0.0], "radiance", [0.0, 0.0, -1.0], 0.5, zenith=40.0)
     r = render(scene, radiometer_samples=100_000, seed=7, threads=2).radiometers[0]
     value, se = float(r.mean[0, 1]), float(r.stderr[0, 1])
+    zscore("Raman Lu 531, beam (0.5 deg cap, sun 40 deg)", value, expect, se)
     # (the 0.5 deg cap: the radiance varies by < 1e-4 across it)
     assert abs(value - expect) < 3.5 * se + 2e-4 * expect, (value, se, expect)
 
@@ -299,7 +325,7 @@ def test_a_camera_gets_its_raman_pass_and_the_passes_sum_to_the_total(tmp_path):
     np.testing.assert_allclose(sum(m.components.values()), m.mean, rtol=1e-12, atol=1e-15)
 
 
-def test_raman_radiance_in_layered_water_matches_its_closed_form():
+def test_raman_radiance_in_layered_water_matches_its_closed_form(zscore):
     """Two layers (the boundary at 2 m, clearer water below): the beam and the Raman light
     are attenuated by each layer's own a + b_R, the sun at the zenith; the nadir radiance at
     1 m, integrated over depth in closed form piece by piece (here by quadrature)."""
@@ -324,6 +350,7 @@ def test_raman_radiance_in_layered_water_matches_its_closed_form():
     m = inelastic.raman_coupling(BANDS)
     expect = inelastic.raman_phase(1.0) * m[1, 0] * np.trapz(e450 * up, zs)
     value, se = float(r.mean[0, 1]), float(r.stderr[0, 1])
+    zscore("Raman Lu 531, beam (two layers)", value, expect, se)
     assert abs(value - expect) < 3.5 * se + 2e-5 * expect, (value, se, expect)
 
 

@@ -10,9 +10,10 @@ codes use it:
   Vodacek 1998, Appl. Opt. 37, 3324: (2.7 +- 0.2) 1e-4 m^-1 at 488 nm, lambda'^-(5.5 +- 0.4));
 - the phase function 3 / (4 pi (3 + rho)) (1 + rho cos^2 psi) with rho = 0.55 (a
   depolarisation ratio of 0.17), normalised over the sphere;
-- the emission's wavenumber shift a Gaussian centred at 3,400 cm^-1 with a full width at half
-  maximum of 400 cm^-1 (one Gaussian for the O-H band, which Walrafen (1967) resolves into
-  four: an approximation, stated where its results are reported).
+- the emission's wavenumber shift the O-H band as Walrafen (1967) resolves it: four Gaussians
+  at 3,250, 3,425, 3,530 and 3,625 cm^-1 with full widths at half maximum of 210, 175, 140
+  and 140 cm^-1 and weights 0.41, 0.39, 0.10, 0.10 (Mobley 1994, "Light and Water", Table
+  5.3, as HydroLight uses them): a mean shift of 3,384 cm^-1.
 
 A scene's bands are sampled spectra (a band's value is a spectral density at its centre,
 representative of its width). The coupling ``raman_coupling(bands)[j, i]`` (m^-1) is the
@@ -32,11 +33,18 @@ import numpy as np
 
 RAMAN_B_488 = 2.7e-4       # m^-1, excitation at 488 nm (Bartlett et al. 1998)
 RAMAN_EXPONENT = 5.5       # b_R ~ lambda'^-5.5, energy-normalised (Bartlett et al. 1998)
-RAMAN_SHIFT_CM = 3400.0    # cm^-1, the centre of the wavenumber shift
-RAMAN_FWHM_CM = 400.0      # cm^-1, the shift's full width at half maximum (one Gaussian)
+# Walrafen's four Gaussians of the wavenumber shift (cm^-1): weights, centres, full widths
+RAMAN_WEIGHTS = np.array([0.41, 0.39, 0.10, 0.10])
+RAMAN_CENTRES_CM = np.array([3250.0, 3425.0, 3530.0, 3625.0])
+RAMAN_FWHM_CM = np.array([210.0, 175.0, 140.0, 140.0])
+RAMAN_SHIFT_CM = float(RAMAN_WEIGHTS @ RAMAN_CENTRES_CM / RAMAN_WEIGHTS.sum())  # the mean shift
+# the shifts from the first Gaussian's half maximum below to the last's above (most of the light)
+RAMAN_SHIFT_RANGE_CM = (float((RAMAN_CENTRES_CM - RAMAN_FWHM_CM).min()), float((RAMAN_CENTRES_CM + RAMAN_FWHM_CM).max()))
 RAMAN_RHO = 0.55           # phase function 1 + rho cos^2 (depolarisation ratio 0.17)
 _SIGMA_CM = RAMAN_FWHM_CM / (2.0 * math.sqrt(2.0 * math.log(2.0)))
-_REACH_CM = 4.0 * RAMAN_FWHM_CM  # the shift's Gaussian is cut there (9.4 sigma)
+# each Gaussian is cut 4 full widths from its centre (9.4 sigma: beyond, < 1e-19 of its peak)
+_REACH_LO_CM = float((RAMAN_CENTRES_CM - 4.0 * RAMAN_FWHM_CM).min())
+_REACH_HI_CM = float((RAMAN_CENTRES_CM + 4.0 * RAMAN_FWHM_CM).max())
 _NODES = 64                # quadrature nodes per band and per excitation range
 
 
@@ -56,9 +64,11 @@ def emission_density(excitation_nm, emission_nm) -> np.ndarray:
     emitted per nm at ``emission_nm`` (normalised over lambda for each lambda')."""
     k_ex = 1e7 / np.asarray(excitation_nm, float)
     lam = np.asarray(emission_nm, float)
-    shift = k_ex - 1e7 / lam
-    g = np.exp(-0.5 * ((shift - RAMAN_SHIFT_CM) / _SIGMA_CM) ** 2) / (_SIGMA_CM * math.sqrt(2 * math.pi))
-    g = np.where(np.abs(shift - RAMAN_SHIFT_CM) <= _REACH_CM, g, 0.0)  # (beyond: < 1e-19 of the peak)
+    shift = np.asarray(k_ex - 1e7 / lam)[..., None]
+    z = (shift - RAMAN_CENTRES_CM) / _SIGMA_CM
+    g = np.where(np.abs(z) <= 4.0 * 2.0 * math.sqrt(2.0 * math.log(2.0)),
+                 RAMAN_WEIGHTS * np.exp(-0.5 * z * z) / (_SIGMA_CM * math.sqrt(2 * math.pi)), 0.0)
+    g = g.sum(axis=-1) / RAMAN_WEIGHTS.sum()
     return g * 1e7 / lam ** 2  # per cm^-1 of wavenumber -> per nm of wavelength
 
 
@@ -80,7 +90,7 @@ def _key(bands) -> tuple:
 def raman_coupling(bands) -> np.ndarray:
     """(nb, nb) coupling [emission j, excitation i] (m^-1) for ``bands`` (objects with
     ``center_nm`` and ``width_nm``): int over band i of b_R(l') f(l' -> l) dl', averaged over
-    l in band j; 0 where no shift (within 4 widths of 3,400 cm^-1) reaches."""
+    l in band j; 0 where no shift (within 4 widths of Walrafen's Gaussians) reaches."""
     return _raman_coupling(_key(bands)).copy()
 
 
@@ -129,8 +139,8 @@ def raman_coverage(bands) -> np.ndarray:
     out = np.ones(len(bands))
     for j, bj in enumerate(bands):
         lem = _band_nodes(float(bj.center_nm), float(bj.width_nm))
-        lo = 1e7 / (1e7 / lem.min() + RAMAN_SHIFT_CM + _REACH_CM)
-        hi = 1e7 / (1e7 / lem.max() + RAMAN_SHIFT_CM - _REACH_CM)
+        lo = 1e7 / (1e7 / lem.min() + _REACH_HI_CM)
+        hi = 1e7 / (1e7 / lem.max() + _REACH_LO_CM)
         grid = np.linspace(lo, hi, 4 * _NODES)
         step = grid[1] - grid[0]
         src = (raman_b(grid)[None, :] * emission_density(grid[None, :], lem[:, None])).mean(axis=0) * step

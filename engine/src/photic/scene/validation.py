@@ -183,7 +183,7 @@ def scene_warnings(s: Scene) -> list[str]:
 def _raman_warnings(s: Scene) -> list[str]:
     """What Raman scattering (settings.raman) cannot give this scene: excitation outside the
     bands."""
-    from ..inelastic import RAMAN_FWHM_CM, RAMAN_SHIFT_CM, raman_coupling, raman_coverage
+    from ..inelastic import RAMAN_SHIFT_RANGE_CM, raman_coupling, raman_coverage
     out = []
     coupling = raman_coupling(s.bands)
     coverage = raman_coverage(s.bands)
@@ -196,8 +196,8 @@ def _raman_warnings(s: Scene) -> list[str]:
                        f"to see all of it, or set settings.raman to false for purely elastic light)")
         return out
     for j, b in enumerate(s.bands):
-        lo = 1e7 / (1e7 / (b.center_nm - 0.5 * b.width_nm) + RAMAN_SHIFT_CM + RAMAN_FWHM_CM)
-        hi = 1e7 / (1e7 / (b.center_nm + 0.5 * b.width_nm) + RAMAN_SHIFT_CM - RAMAN_FWHM_CM)
+        lo = 1e7 / (1e7 / (b.center_nm - 0.5 * b.width_nm) + RAMAN_SHIFT_RANGE_CM[1])
+        hi = 1e7 / (1e7 / (b.center_nm + 0.5 * b.width_nm) + RAMAN_SHIFT_RANGE_CM[0])
         if coverage[j] < 0.9:
             got = "none" if not coupling[j].any() else f"{100 * coverage[j]:.0f} %"
             out.append(f"band '{b.name}': its Raman light is excited at about {lo:.0f}-{hi:.0f} nm, of "
