@@ -240,11 +240,7 @@ void Scene::fold_inelastic(BeamTerms& t, Components* out) const {
     const int nb = nbands;
     const Components& b = t.before;
     double found[kMaxBands];
-    for (int i = 0; i < nb; ++i) {
-        found[i] = out->path.v[i] - b.path.v[i] + out->beam_surface.v[i] - b.beam_surface.v[i] +
-                   out->beam_volume.v[i] - b.beam_volume.v[i];
-        for (int c = 0; c < kInelasticKinds; ++c) found[i] += out->inelastic[c].v[i] - b.inelastic[c].v[i];
-    }
+    for (int i = 0; i < nb; ++i) found[i] = out->total(i) - b.total(i);
     Spectrum into = b.inelastic[t.kind];
     for (int k = 0; k < nb; ++k)
         for (int i = 0; i < nb; ++i) into.v[k] += t.share[k * nb + i] * found[i];
@@ -278,16 +274,11 @@ void Scene::inelastic_branch(const Vec3& o, const Vec3& d, double T, int medium,
     // The branch: the light arriving at x along the direction drawn (its phase function's
     // weight is 1), with the beams' direct light at x left to the segment's beam term.
     const Components L = trace(x, P.sample_direction(d, rng), medium, false, hybrid, rng, c, 1.0, camera, false, false);
-    double found[kMaxBands];
-    for (int i = 0; i < nb; ++i) {
-        found[i] = L.path.v[i] + L.beam_surface.v[i] + L.beam_volume.v[i];
-        for (int ci = 0; ci < kInelasticKinds; ++ci) found[i] += L.inelastic[ci].v[i];
-    }
     const double* m = P.at(layer);
     const double scale = total / (g[pick] * pdf);
     for (int k = 0; k < nb; ++k) {
         double r = 0.0;
-        for (int i = P.from[k]; i < P.to[k]; ++i) r += m[size_t(k) * nb + i] * found[i];
+        for (int i = P.from[k]; i < P.to[k]; ++i) r += m[size_t(k) * nb + i] * L.total(i);
         out->inelastic[P.kind].v[k] += weight[k] * att[k] * r * scale;
     }
 }

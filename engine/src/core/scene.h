@@ -184,9 +184,14 @@ struct Components {
     Spectrum beam_surface;  // the sun from beams on surfaces (refracted under water, reflected in the air)
     Spectrum beam_volume;   // single scattering of beams along traced water segments
     Spectrum path;          // everything path tracing finds itself (sky, sun above water, ...)
-    // Light an inelastic process (InelasticKind: Raman, chlorophyll fluorescence) put into
+    // Light an inelastic process (InelasticKind: Raman, chlorophyll, CDOM fluorescence) put into
     // these bands, the beams' or the paths' (a path's first such event decides the kind).
     Spectrum inelastic[kInelasticKinds];
+    double total(int k) const {  // all of band k's light
+        double s = beam_surface.v[k] + beam_volume.v[k] + path.v[k];
+        for (const Spectrum& x : inelastic) s += x.v[k];
+        return s;
+    }
 };
 
 struct alignas(64) Counters {  // one cache line each: no false sharing between threads

@@ -77,6 +77,14 @@ def excitation_nm(emission_nm) -> np.ndarray:
     return 1e7 / (1e7 / np.asarray(emission_nm, float) + RAMAN_SHIFT_CM)
 
 
+def _inside(grid: np.ndarray, bands) -> np.ndarray:
+    """Which wavelengths of ``grid`` lie inside one of the bands."""
+    inside = np.zeros_like(grid, dtype=bool)
+    for b in bands:
+        inside |= np.abs(grid - float(b.center_nm)) <= 0.5 * float(b.width_nm)
+    return inside
+
+
 def _band_nodes(center: float, width: float) -> np.ndarray:
     """Midpoint nodes over [center - width / 2, center + width / 2], at wavelengths above 1 nm
     (a band wider than twice its centre reaches below 0: no light there)."""
@@ -144,9 +152,7 @@ def raman_coverage(bands) -> np.ndarray:
         grid = np.linspace(lo, hi, 4 * _NODES)
         step = grid[1] - grid[0]
         src = (raman_b(grid)[None, :] * emission_density(grid[None, :], lem[:, None])).mean(axis=0) * step
-        inside = np.zeros_like(grid, dtype=bool)
-        for b in bands:
-            inside |= np.abs(grid - float(b.center_nm)) <= 0.5 * float(b.width_nm)
+        inside = _inside(grid, bands)
         total = src.sum()
         out[j] = float(src[inside].sum() / total) if total > 0 else 1.0
     return out
@@ -203,9 +209,7 @@ def chlorophyll_coupling(bands, absorption, quantum_yield: float = CHL_YIELD, pe
 def chlorophyll_coverage(bands, peak_nm: float = CHL_PEAK_NM, fwhm_nm: float = CHL_FWHM_NM) -> float:
     """The share of the emitted photons whose wavelengths lie inside the scene's bands."""
     grid = np.linspace(peak_nm - CHL_REACH * fwhm_nm, peak_nm + CHL_REACH * fwhm_nm, 4001)
-    inside = np.zeros_like(grid, dtype=bool)
-    for b in bands:
-        inside |= np.abs(grid - float(b.center_nm)) <= 0.5 * float(b.width_nm)
+    inside = _inside(grid, bands)
     g = chlorophyll_emission(grid, peak_nm, fwhm_nm)
     return float(np.trapz(g * inside, grid) / np.trapz(g, grid))
 
@@ -276,9 +280,7 @@ def cdom_coverage(bands, absorption) -> float:
     a = np.asarray(absorption, float)
     a = a.mean(axis=0) if a.ndim == 2 else a
     grid = np.linspace(250.0, 1200.0, 3801)
-    inside = np.zeros_like(grid, dtype=bool)
-    for b in bands:
-        inside |= np.abs(grid - float(b.center_nm)) <= 0.5 * float(b.width_nm)
+    inside = _inside(grid, bands)
     emitted = np.zeros_like(grid)
     for ai, b in zip(a, bands):
         if ai > 0:
