@@ -67,8 +67,9 @@ PYBIND11_MODULE(_core, m) {
     py::register_exception<EmbreeError>(m, "EmbreeError", PyExc_RuntimeError);
     m.attr("MAX_BANDS") = kMaxBands;
     bind_rough_interface(m);
+    static_assert(kNumComponents == 8, "COMPONENTS below names each component");
     m.attr("COMPONENTS") = py::make_tuple("total", "beam_surface", "beam_volume", "path", "beam_direct", "raman",
-                                          "chlorophyll");
+                                          "chlorophyll", "cdom");
 
     m.def("fresnel", [](double cos_i, double n1, double n2) { return fresnel_unpolarized(cos_i, n1, n2); },
           py::arg("cos_i"), py::arg("n1"), py::arg("n2"),
