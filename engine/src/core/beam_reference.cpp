@@ -94,8 +94,8 @@ void Scene::build_grid_reference(const Spectrum& e_sun, int threads) {
     ref.grid.clear();
     // (The centre's prisms in the buffers of the build's own, which it fills later: their
     // memory is faulted in once.)
-    HugeVector<BeamPrism>& centre = prisms;
-    HugeVector<PrismKey>& keys = prism_keys_;
+    LargeVector<BeamPrism>& centre = prisms;
+    LargeVector<PrismKey>& keys = prism_keys_;
     struct Empty {  // left empty, whichever way this returns
         Scene* s;
         ~Empty() {

@@ -58,10 +58,13 @@ namespace {
 
 // Room for n items with a quarter to spare: the sizes vary from pass to pass (the sun's
 // direction is drawn anew), and an array grown to the exact size was allocated afresh (and its
-// pages faulted in and zeroed) at nearly every pass that needed a few more items.
+// pages faulted in and zeroed) at nearly every pass that needed a few more items. At least
+// doubled when it grows: an array filled piece by piece (the grid's items, layer by layer)
+// would otherwise be copied into fresh pages some ten times per build; pages reserved and
+// never written cost nothing.
 template <class V>
 void make_room(V& v, size_t n) {
-    if (n > v.capacity()) v.reserve(n + n / 4);
+    if (n > v.capacity()) v.reserve(std::max(n + n / 4, 2 * v.capacity()));
 }
 
 }  // namespace
@@ -86,7 +89,7 @@ bool Scene::refract_sun(const Vec3& s, const Vec3& n, double ior, Vec3* d, doubl
 }
 
 void Scene::make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int threads, double facet_u1,
-                        double facet_u2, HugeVector<BeamPrism>* dest, std::vector<std::array<Vec3, 3>>* normals,
+                        double facet_u2, LargeVector<BeamPrism>* dest, std::vector<std::array<Vec3, 3>>* normals,
                         bool blur) {
     auto ocean_refraction = [&](const Vec3& n, double ior, Vec3* d, double* T, double u1, double u2) {
         return refract_sun(s, n, ior, d, T, u1, u2);
@@ -743,8 +746,8 @@ void Scene::set_prism_checks(BeamPrism* P, bool uniform, bool ends_on_surface) c
     P->check_sun = first_opaque_box(boxes, tol, Vec3(), Vec3(), 0.0) >= 0;
 }
 
-void Scene::make_keys(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys_out) {
-    HugeVector<PrismKey>& keys = *keys_out;
+void Scene::make_keys(const LargeVector<BeamPrism>& prisms, LargeVector<PrismKey>* keys_out) {
+    LargeVector<PrismKey>& keys = *keys_out;
     make_room(keys, prisms.size());
     keys.resize(prisms.size());
     for (size_t pi = 0; pi < prisms.size(); ++pi) {
@@ -841,7 +844,7 @@ double Scene::disk_phase_eval(int phase, double x) const {
     return tab[size_t(i)] + t * (tab[size_t(i) + 1] - tab[size_t(i)]);
 }
 
-void Scene::blur_margins(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys) {
+void Scene::blur_margins(const LargeVector<BeamPrism>& prisms, const LargeVector<PrismKey>& keys) {
     // A horizontally sliced prism's blur reaches R(h) <= r_hi |h| + max(r_c, 0) across, and
     // |h| = |z|; a prism sliced otherwise: its reach at the farthest end of its rays.
     blur_margin_a_.assign(prisms.size(), 0.0);
@@ -860,7 +863,7 @@ void Scene::blur_margins(const HugeVector<BeamPrism>& prisms, const HugeVector<P
     }
 }
 
-void Scene::grid_shear(const HugeVector<PrismKey>& keys, double* sx, double* sy) {
+void Scene::grid_shear(const LargeVector<PrismKey>& keys, double* sx, double* sy) {
     // The grid is sheared along the beams' typical drift (sx, sy) per metre of depth (the
     // median over the horizontally sliced prisms' rays): in coordinates u = x + sx z,
     // v = y + sy z, z a prism stands nearly upright, so cells can be tall (few marks per
@@ -880,7 +883,7 @@ void Scene::grid_shear(const HugeVector<PrismKey>& keys, double* sx, double* sy)
     *sy = bys.empty() ? 0.0 : median(bys);
 }
 
-void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, BeamGrid* grid_out,
+void Scene::build_grid(const LargeVector<BeamPrism>& prisms, const LargeVector<PrismKey>& keys, BeamGrid* grid_out,
                        const double* margin_a, const double* margin_g, const std::atomic<bool>* cancel) {
     BeamGrid& grid = *grid_out;
     grid.clear();
@@ -1109,7 +1112,7 @@ void Scene::build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<Pri
         grid.start.resize(ncell + 1);
         const size_t nlayer = size_t(grid.nx) * grid.ny;
         std::vector<uint32_t> count(nlayer + 1);
-        HugeVector<uint64_t>& marks = grid.marks;  // (cell in the layer << 32 | prism)
+        LargeVector<uint64_t>& marks = grid.marks;  // (cell in the layer << 32 | prism)
         grid.items.clear();
         for (int k = 0; k < grid.nz; ++k) {
             marks.clear();
@@ -1449,7 +1452,7 @@ double Scene::beam_patch_copies() const {
     return std::max(water_grid_ ? copies(*water_grid_) : 1.0, copies(air_grid_));
 }
 
-int Scene::lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
+int Scene::lookup(const LargeVector<BeamPrism>& prisms, const LargeVector<PrismKey>& keys, const BeamGrid& grid,
                   const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const {
     thread_local std::vector<BeamCandidate> found;  // per thread: kept, so rarely grown
     found.clear();
@@ -1457,7 +1460,7 @@ int Scene::lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey
     return eval_candidates(prisms, found.data(), found.size(), x, out, n, max, exact);
 }
 
-void Scene::find_candidates(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys,
+void Scene::find_candidates(const LargeVector<BeamPrism>& prisms, const LargeVector<PrismKey>& keys,
                             const BeamGrid& grid, const Vec3& x, int medium,
                             std::vector<BeamCandidate>* found, bool blurred) const {
     if (grid.nx == 0) return;
@@ -1495,7 +1498,7 @@ void Scene::find_candidates(const HugeVector<BeamPrism>& prisms, const HugeVecto
         }
 }
 
-int Scene::eval_candidates(const HugeVector<BeamPrism>& prisms, const BeamCandidate* found, size_t count,
+int Scene::eval_candidates(const LargeVector<BeamPrism>& prisms, const BeamCandidate* found, size_t count,
                            const Vec3& x, BeamSample* out, int n, int max, bool exact) const {
     if (max <= 0) return n;
     for (size_t q = 0; q < count; ++q) {

@@ -14,7 +14,7 @@
 #include "vec.h"
 #include "rough_interface.h"
 #include "medium.h"
-#include "huge_pages.h"
+#include "large_arrays.h"
 #include "embree4_api.h"
 
 namespace photic {
@@ -270,8 +270,8 @@ public:
     // Beams of the current pass (rebuilt for every sun direction drawn in the disk): the
     // refracted sun in the water, and the sun reflected by smooth water surfaces into the air
     // (where opaque objects or radiometers stand in the air).
-    HugeVector<BeamPrism> prisms;
-    HugeVector<BeamPrism> air_prisms;
+    LargeVector<BeamPrism> prisms;
+    LargeVector<BeamPrism> air_prisms;
     // The sun reflected by a smooth flat ocean: one analytic beam in the air.
     bool flat_air_beam = false;
     Vec3 flat_air_d;
@@ -560,9 +560,9 @@ private:
         // cells[c * kCellWords ...]: the count, start[c], and the first kInline items, in
         // one 32-byte record (one miss where start and items were two dependent ones).
         static constexpr int kCellWords = 8, kInline = kCellWords - 2;
-        HugeVector<uint32_t> cells, items;
-        HugeVector<uint32_t> start, fill, last;  // the build's (kept: see build_grid)
-        HugeVector<uint64_t> marks;
+        LargeVector<uint32_t> cells, items;
+        LargeVector<uint32_t> start, fill, last;  // the build's (kept: see build_grid)
+        LargeVector<uint64_t> marks;
         // Empty (no cells), keeping the arrays' memory for the next pass.
         void clear() {
             sx = sy = 0.0;
@@ -593,7 +593,7 @@ private:
     // both, and the list is a miss of its own for the many cells whose items all fit in the
     // record).
     __attribute__((always_inline)) static void prefetch_cell_keys(const BeamGrid& grid, const uint32_t* rec,
-                                                                  const HugeVector<PrismKey>& keys) {
+                                                                  const LargeVector<PrismKey>& keys) {
         auto fetch = [&](uint32_t pi) {
             const char* p = reinterpret_cast<const char*>(&keys[pi]);
             __builtin_prefetch(p);
@@ -604,7 +604,7 @@ private:
         for (uint32_t q = 0; q < in_record; ++q) fetch(rec[2 + q]);
         for (uint32_t q = BeamGrid::kInline; q < count; ++q) fetch(grid.items[first + q]);
     }
-    HugeVector<PrismKey> prism_keys_;
+    LargeVector<PrismKey> prism_keys_;
     // The water beams' grid of the sun's centre, kept from pass to pass (beam_reference.cpp).
     // Every pass draws its own direction within the sun's disk, and its prisms lie within
     // `margin` of the centre's (in the grid's sheared frame, after each pass's own shear):
@@ -651,17 +651,17 @@ private:
     // appended to dest: refracted into the water, or (air) reflected into the air; normals
     // (optional): each prism's corners' shading normals, appended alike.
     void make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int threads, double facet_u1, double facet_u2,
-                     HugeVector<BeamPrism>* dest, std::vector<std::array<Vec3, 3>>* normals = nullptr,
+                     LargeVector<BeamPrism>* dest, std::vector<std::array<Vec3, 3>>* normals = nullptr,
                      bool blur = false);
     BeamGrid air_grid_;
-    HugeVector<PrismKey> air_keys_;
-    static void make_keys(const HugeVector<BeamPrism>& prisms, HugeVector<PrismKey>* keys);
+    LargeVector<PrismKey> air_keys_;
+    static void make_keys(const LargeVector<BeamPrism>& prisms, LargeVector<PrismKey>* keys);
     // The grid's shear: the median drift per metre of depth of the horizontally sliced prisms.
-    static void grid_shear(const HugeVector<PrismKey>& keys, double* sx, double* sy);
+    static void grid_shear(const LargeVector<PrismKey>& keys, double* sx, double* sy);
     // A grid over the prisms (their keys made); margins (optional, per prism): a piece of
     // prism i at heights z is widened across by margin_a[i] + margin_g[i] max |z|, and covers
     // its whole layer of cells.
-    static void build_grid(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, BeamGrid* grid,
+    static void build_grid(const LargeVector<BeamPrism>& prisms, const LargeVector<PrismKey>& keys, BeamGrid* grid,
                            const double* margin_a = nullptr, const double* margin_g = nullptr,
                            const std::atomic<bool>* cancel = nullptr);
     // build_beams' work; throws BuildCancelled when cancel_flag is set on the way.
@@ -675,10 +675,10 @@ private:
     double disk_phase_eval(int phase, double x) const;
     // The disk blur's margins of the current prisms for build_grid (per prism: a + g |z|).
     std::vector<double> blur_margin_a_, blur_margin_g_;
-    void blur_margins(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys);
+    void blur_margins(const LargeVector<BeamPrism>& prisms, const LargeVector<PrismKey>& keys);
     struct BuildCancelled {};
     // The prisms of one set (keys and grid) covering x, appended to out from index n.
-    int lookup(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
+    int lookup(const LargeVector<BeamPrism>& prisms, const LargeVector<PrismKey>& keys, const BeamGrid& grid,
                const Vec3& x, int medium, BeamSample* out, int n, int max, bool exact) const;
     // lookup's two halves. A candidate: a prism whose key passed at x shifted by (i, j) periods
     // of the ocean patch.
@@ -687,10 +687,10 @@ private:
         int32_t i, j;
     };
     // Appends the candidates at x (in the order lookup evaluates them), their prisms fetched ahead.
-    void find_candidates(const HugeVector<BeamPrism>& prisms, const HugeVector<PrismKey>& keys, const BeamGrid& grid,
+    void find_candidates(const LargeVector<BeamPrism>& prisms, const LargeVector<PrismKey>& keys, const BeamGrid& grid,
                          const Vec3& x, int medium, std::vector<BeamCandidate>* found, bool blurred = true) const;
     // The beams of found[0, count) covering x, appended to out from index n (at most max in all).
-    int eval_candidates(const HugeVector<BeamPrism>& prisms, const BeamCandidate* found, size_t count,
+    int eval_candidates(const LargeVector<BeamPrism>& prisms, const BeamCandidate* found, size_t count,
                         const Vec3& x, BeamSample* out, int n, int max, bool exact) const;
     // beams_at's beams of a flat sea (refracted, or reflected into the air), before the prisms'.
     int flat_beams_at(const Vec3& x, int medium, BeamSample* out, int max, bool exact) const;

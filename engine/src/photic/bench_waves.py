@@ -4,12 +4,17 @@ against the same scene over a flat sea.
 Every member is one ocean scene (a 0.1, b 0.2 Petzold, sand 5 m down, the real 0.53 deg sun)
 with 64 Ed radiometers 2 m deep on an 8 x 8 grid over one period of its JONSWAP patch; the
 members differ in the patch's size, the wind, the patch's grid points per side and the sun's
-zenith angle. Per member, the CPU time (process time, all threads) of whole renders, the beam
-builds included, under the waves over the same over a flat sea:
+zenith angle. Per member, the CPU time (all threads) of whole renders, the beam builds
+included, under the waves over the same over a flat sea:
 
-- ``total``: at ``samples`` (1,000) samples per radiometer;
+- ``total``: at ``samples`` (1,000) samples per radiometer, user and system time;
 - ``margin``: of the extra cost of ``samples_hi`` samples over ``samples`` (the same number of
-  beam builds in both: the cost per sample alone).
+  beam builds in both: the cost per sample alone), in user CPU time. The system time is left
+  out of the margin: it is nearly all the build's page faults, whose cost is the same at any
+  number of samples but varies 10-fold from one render to the next (transparent huge pages
+  faulted in for the first time: 0.06 to 0.7 s for the same 53 pages on the 2-core machine),
+  which made the margin of a fine patch read too low whenever the run with fewer samples drew
+  the slow build.
 
 Runs are paired (waves and flat with the same seed, one after the other) and interleaved over
 members and repeats (the machine's load drifts over both alike); the ratios are medians over
@@ -67,14 +72,27 @@ def wave_member_scene(member: WaveMember, surface: str, samples: int, radiometer
     return Scene.from_dict(d)
 
 
-def _cpu_render(scene: Scene, seed: int, threads: int) -> tuple[float, dict]:
+def _cpu_times() -> tuple[float, float]:
+    """This process's (user, system) CPU seconds, all threads; (process time, 0) where the
+    platform does not split them."""
+    try:
+        import resource
+    except ImportError:  # (Windows)
+        return time.process_time(), 0.0
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime, r.ru_stime
+
+
+def _cpu_render(scene: Scene, seed: int, threads: int) -> tuple[float, float, dict]:
+    """A render's user and system CPU seconds and its stats."""
     from .render import render
     from .waves import surface_patch
 
     surface_patch.cache_clear()  # every render synthesises its waves, as a fresh one does
-    c0 = time.process_time()
+    u0, s0 = _cpu_times()
     res = render(scene, seed=seed, threads=threads)
-    return time.process_time() - c0, res.stats
+    u1, s1 = _cpu_times()
+    return u1 - u0, s1 - s0, res.stats
 
 
 def run_wave_family(members=WAVE_FAMILY, threads: int = 2, repeats: int = 5, samples: int = 1000,
@@ -84,6 +102,7 @@ def run_wave_family(members=WAVE_FAMILY, threads: int = 2, repeats: int = 5, sam
     the waves' beam build time (wall, inside the render)."""
     say = progress or (lambda msg: None)
     cpu = {(m.name, s, n): [] for m in members for s in ("waves", "flat") for n in (samples, samples_hi)}
+    user = {k: [] for k in cpu}
     build = {m.name: [] for m in members}
     for rep in range(repeats):
         for mi, m in enumerate(members):
@@ -91,8 +110,9 @@ def run_wave_family(members=WAVE_FAMILY, threads: int = 2, repeats: int = 5, sam
             if (rep + mi) % 2:  # alternate which surface goes first
                 runs = [(s, n) for n in (samples, samples_hi) for s in ("flat", "waves")]
             for s, n in runs:
-                t, stats = _cpu_render(wave_member_scene(m, s, n), 1 + rep, threads)
-                cpu[(m.name, s, n)].append(t)
+                tu, ts, stats = _cpu_render(wave_member_scene(m, s, n), 1 + rep, threads)
+                cpu[(m.name, s, n)].append(tu + ts)
+                user[(m.name, s, n)].append(tu)
                 if s == "waves" and n == samples:
                     build[m.name].append(stats["beam_build_s"])
             say(f"waves family, repeat {rep + 1}/{repeats}, {m.name}: "
@@ -100,14 +120,16 @@ def run_wave_family(members=WAVE_FAMILY, threads: int = 2, repeats: int = 5, sam
     out = []
     for m in members:
         w1, f1 = cpu[(m.name, "waves", samples)], cpu[(m.name, "flat", samples)]
-        w2, f2 = cpu[(m.name, "waves", samples_hi)], cpu[(m.name, "flat", samples_hi)]
         total = [a / b for a, b in zip(w1, f1)]
-        margin = [(a2 - a1) / (b2 - b1) for a1, b1, a2, b2 in zip(w1, f1, w2, f2)]
+        uw1, uf1 = user[(m.name, "waves", samples)], user[(m.name, "flat", samples)]
+        uw2, uf2 = user[(m.name, "waves", samples_hi)], user[(m.name, "flat", samples_hi)]
+        margin = [(a2 - a1) / (b2 - b1) for a1, b1, a2, b2 in zip(uw1, uf1, uw2, uf2)]
         out.append({"member": m.name, "patch_m": m.patch_m, "wind": m.wind, "grid": m.grid,
                     "sun_zenith": m.sun_zenith, "samples": samples, "samples_hi": samples_hi,
                     "cpu_s": {f"{s}_{n}": float(statistics.median(cpu[(m.name, s, n)]))
                               for s in ("waves", "flat") for n in (samples, samples_hi)},
                     "beam_build_s": float(statistics.median(build[m.name])),
+                    "beam_build_s_range": [float(min(build[m.name])), float(max(build[m.name]))],
                     "ratio_total": float(statistics.median(total)), "ratio_margin": float(statistics.median(margin)),
                     "ratios_total": total, "ratios_margin": margin})
     return out
@@ -116,7 +138,8 @@ def run_wave_family(members=WAVE_FAMILY, threads: int = 2, repeats: int = 5, sam
 def format_wave_family(records: list[dict]) -> str:
     r0 = records[0]
     lines = [f"64 Ed radiometers 2 m deep over one period, waves / flat sea (CPU time, medians of paired runs): "
-             f"total at {r0['samples']:,} samples each, margin from {r0['samples']:,} to {r0['samples_hi']:,}",
+             f"total at {r0['samples']:,} samples each, margin (user time) from {r0['samples']:,} to "
+             f"{r0['samples_hi']:,}",
              "  member               patch  wind  grid  sun   waves CPU-s  flat CPU-s  build s   total  margin",
              "                          m   m/s        deg   at {:>6,}  at {:>6,}   (wall)".format(
                  r0["samples"], r0["samples"])]
@@ -124,5 +147,7 @@ def format_wave_family(records: list[dict]) -> str:
         w, f = r["cpu_s"][f"waves_{r['samples']}"], r["cpu_s"][f"flat_{r['samples']}"]
         lines.append(f"  {r['member']:<18} {r['patch_m']:6.0f} {r['wind']:5.0f} {r['grid']:5d} {r['sun_zenith']:4.0f} "
                      f"{w:12.2f} {f:11.2f} "
-                     f"{r['beam_build_s']:8.2f} {r['ratio_total']:6.2f}x {r['ratio_margin']:6.2f}x")
+                     f"{r['beam_build_s']:8.2f} {r['ratio_total']:6.2f}x {r['ratio_margin']:6.2f}x"
+                     + (f"   (builds {r['beam_build_s_range'][0]:.2f}-{r['beam_build_s_range'][1]:.2f} s)"
+                        if "beam_build_s_range" in r else ""))
     return "\n".join(lines)
