@@ -121,9 +121,11 @@ def render_blend(path, frame: int | None = None, out_dir=None, samples: int | No
     if not summary or summary.get("error"):
         raise RuntimeError(summary.get("error") or "the render did not run (is the scene's "
                                                    "render engine Photic and is there a camera?)")
-    # Saved here rather than with write_still, which does not number still frames in 5.0.
+    # Saved here rather than with write_still, which does not number still frames in 5.0;
+    # under a temporary name renamed when complete, so that a full disk or a second Ctrl-C
+    # never leaves a truncated image under the frame's name.
     image = scene.render.frame_path(frame=scene.frame_current)
-    bpy.data.images["Render Result"].save_render(filepath=image, scene=scene)
+    _save_render(image, scene)
     summary["image"] = image
     if png:
         final_render.apply_auto_exposure(scene)  # (as the render_complete handler does)
@@ -132,5 +134,13 @@ def render_blend(path, frame: int | None = None, out_dir=None, samples: int | No
         settings.file_format = "PNG"
         settings.color_depth = "8"
         summary["png"] = str(Path(image).with_suffix(".png"))
-        bpy.data.images["Render Result"].save_render(filepath=summary["png"], scene=scene)
+        _save_render(summary["png"], scene)
     return summary
+
+
+def _save_render(path: str, scene) -> None:
+    """The render result saved to ``path`` with the scene's output settings, atomically."""
+    from photic.safe_io import atomic_path
+
+    with atomic_path(path) as tmp:
+        bpy.data.images["Render Result"].save_render(filepath=str(tmp), scene=scene)

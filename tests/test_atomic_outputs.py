@@ -137,3 +137,63 @@ def test_names_that_cannot_be_written_are_refused_when_read(where):
     with pytest.raises(SceneError, match="UTF-8 can hold") as e:
         Scene.from_dict(d)
     str(e.value).encode("utf-8")  # the message itself can be printed
+
+
+def test_an_atomic_path_is_renamed_only_when_the_writer_finished(tmp_path):
+    """For writers that take a name (Blender's image saver): the final name gets the whole new
+    file, or keeps the old one when the writer fails or writes nothing; no temporary is left."""
+    from photic.safe_io import atomic_path
+
+    path = tmp_path / "frame_0001.exr"
+    path.write_bytes(b"old")
+    with atomic_path(path) as tmp:
+        assert tmp.parent == tmp_path and tmp.suffix == ".exr" and tmp != path
+        tmp.write_bytes(b"new")
+    assert path.read_bytes() == b"new"
+    with pytest.raises(OSError, match="disk full"):
+        with atomic_path(path) as tmp:
+            tmp.write_bytes(b"half")
+            raise OSError(errno.ENOSPC, "disk full")
+    assert path.read_bytes() == b"new"
+    with pytest.raises(OSError, match="wrote nothing"):
+        with atomic_path(path):
+            pass
+    assert path.read_bytes() == b"new" and sorted(os.listdir(tmp_path)) == ["frame_0001.exr"]
+    (tmp_path / "folder.exr").mkdir()
+    with pytest.raises(IsADirectoryError, match="folder"):
+        with atomic_path(tmp_path / "folder.exr"):
+            pass
+
+
+def test_photic_blend_saves_its_images_atomically(tmp_path, monkeypatch):
+    """The EXR and PNG that `photic blend` saves through Blender go under a temporary name
+    first: a save that fails half-way leaves the frame's earlier image whole."""
+    pytest.importorskip("bpy")
+    import types
+
+    from photic.cli import load_addon
+
+    load_addon()
+    from photic_blender import batch
+
+    blend = Path(__file__).resolve().parent.parent / "example_blends" / "stepped_pool.blend"
+    summary = batch.render_blend(blend, out_dir=tmp_path, samples=1, resolution_percentage=10, png=True)
+    image, png = Path(summary["image"]), Path(summary["png"])
+    assert image.stat().st_size > 0 and png.stat().st_size > 0
+    assert not [p for p in os.listdir(image.parent) if ".tmp" in p]
+    before = image.read_bytes()
+    saved = []
+
+    class HalfWritten:  # Blender's saver on a disk that fills up half-way
+        def save_render(self, filepath, scene=None):
+            Path(filepath).write_bytes(b"trunc")
+            saved.append(filepath)
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    fake = types.SimpleNamespace(data=types.SimpleNamespace(images={"Render Result": HalfWritten()}))
+    monkeypatch.setattr(batch, "bpy", fake)
+    with pytest.raises(OSError):
+        batch._save_render(str(image), None)
+    assert saved and Path(saved[0]) != image
+    assert image.read_bytes() == before
+    assert not [p for p in os.listdir(image.parent) if ".tmp" in p]

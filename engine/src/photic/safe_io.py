@@ -33,6 +33,26 @@ def atomic_file(path, mode: str = "w", **kw):
             tmp.unlink()
 
 
+@contextlib.contextmanager
+def atomic_path(path):
+    """A temporary path beside ``path`` (the same suffix, for writers that choose a format by
+    it) for a writer that takes a file name, not a file (Blender's image saver): renamed to
+    ``path`` when the block ends without an error, else removed, an existing file of that
+    name left as it was."""
+    path = Path(path)
+    if path.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "a folder of that name is in the way", str(path))
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+    try:
+        yield tmp
+        if not tmp.is_file():
+            raise OSError(errno.EIO, "the writer wrote nothing", str(path))
+        os.replace(tmp, path)
+    finally:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+
+
 _FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
 
 
