@@ -70,23 +70,23 @@ def scene_band_groups(scene) -> list[slice]:
 def inelastic_group_warnings(scene) -> list[str]:
     """The bands that lose inelastic light (Raman, fluorescence) to the band groups (a path
     carries only its group's bands; scene_band_groups)."""
-    from .inelastic import water_processes
+    from .inelastic import KIND_NAMES, water_processes
     groups = scene_band_groups(scene)
     if len(groups) < 2:
         return []
     group_of = np.empty(len(scene.bands), int)
     for g, sl in enumerate(groups):
         group_of[sl] = g
-    names = {0: "Raman", 1: "chlorophyll", 2: "CDOM"}
+    processes = [(k, c) for w in scene.water for k, c, _ in water_processes(scene, w)]
     out = []
-    for kind in sorted({k for w in scene.water for k, _, _ in water_processes(scene, w)}):
+    for kind in sorted({k for k, _ in processes}):
         coupling = sum(np.asarray(c).reshape(-1, *np.shape(c)[-2:]).sum(axis=0)
-                       for w in scene.water for k, c, _ in water_processes(scene, w) if k == kind)
+                       for k, c in processes if k == kind)
         apart = coupling * (group_of[:, None] != group_of[None, :])
         lost = [scene.bands[j].name for j in range(len(scene.bands)) if apart[j].sum() > 0.01 * coupling[j].sum()]
         if lost:
             out.append(f"the bands render in {len(groups)} groups (at most 16 bands, and bands whose scattering "
-                       f"differs a hundredfold, render apart) and {names[kind]} light does not cross groups: bands "
+                       f"differs a hundredfold, render apart) and {KIND_NAMES[kind]} light does not cross groups: bands "
                        f"{', '.join(repr(n) for n in lost)} lose what comes from another group")
     return out
 

@@ -291,6 +291,7 @@ def cdom_coverage(bands, absorption) -> float:
 
 
 KIND_RAMAN, KIND_CHLOROPHYLL, KIND_CDOM = 0, 1, 2  # the core's InelasticKind
+KIND_NAMES = {KIND_RAMAN: "Raman", KIND_CHLOROPHYLL: "chlorophyll", KIND_CDOM: "CDOM"}  # (in messages)
 
 
 def water_processes(scene, water) -> list[tuple[int, np.ndarray, float]]:
