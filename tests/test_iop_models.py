@@ -258,6 +258,12 @@ def test_errors_name_the_field():
     assert e.field == "components[0].water"
     e = errors({"model": "pure_water", "water": "segelstein"})
     assert e.field == "water"
+    # the new model's particle backscatter fraction follows the chlorophyll: far outside the
+    # fit it leaves the Fournier-Forand range, which is the chlorophyll's problem, not the table's
+    for chl, fraction in ((1e-300, "0.7567"), (1e4, "-0.003")):
+        e = errors({**case1, "variant": "new", "chlorophyll": chl, "chlorophyll_absorption": AE_SPEC})
+        assert e.field == "chlorophyll" and f"b_bp/b_p of {fraction}" in e.message and "band 0" in e.message
+    m.iops_from_model({**case1, "variant": "new", "chlorophyll": 1e-40, "chlorophyll_absorption": AE_SPEC}, RGB)
 
 
 def test_bands_outside_a_table_are_refused():

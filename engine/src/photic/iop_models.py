@@ -749,6 +749,18 @@ def _constituent(d: Any, bands, obj: str, prefix: str, base_dir, in_mixture: boo
                                      f"{{'a_ref': ..., 'wavelength_ref_nm': ..., 'slope': ...}}, "
                                      f"got {_show(c)}")
         fn = case1_classic if variant == "classic" else case1_new
+        if variant == "new" and isinstance(phase, str) and phase == MM01:
+            # (the particles' backscatter fraction follows the chlorophyll: far outside the
+            # model's range it leaves the Fournier-Forand range, the chlorophyll's problem)
+            ratio = morel_maritorena_backscatter_ratio(chl, bands)
+            lo, hi = FF_BACKSCATTER_RANGE
+            bad = np.flatnonzero(~((ratio >= lo) & (ratio <= hi)))
+            if bad.size:
+                k = int(bad[0])
+                raise spec.error("chlorophyll", f"{chl:g} mg m^-3 gives the particles a backscatter fraction "
+                                                f"b_bp/b_p of {ratio[k]:.4g} in {_as_bands(bands)[k].label}, outside the "
+                                                f"Fournier-Forand range [{lo:g}, {hi:g}] (Morel and "
+                                                f"Maritorena 2001's b_bp is fitted for about 0.02-30 mg m^-3)")
         # a band outside the table is the table's field's problem
         out = _run(spec, "chlorophyll_absorption", fn, bands, chl, table,
                    covarying_cdom=covarying, cdom_slope=slope, particle_phase=phase)
