@@ -304,6 +304,21 @@ def test_error_message_of_the_format_specification():
                                "number >= 0, got -0.1")
 
 
+@pytest.mark.parametrize("field, value, text", [
+    ("raman", "yes", "must be true/false, or 'auto', got 'yes'"),
+    ("target_error", "1%", "must be a finite number in (0, 1), or null, got '1%'"),
+    ("forward_cone_deg", "wide", "must be a finite number in [0, 30], or 'auto', got 'wide'"),
+])
+def test_settings_with_alternatives_say_what_they_accept(field, value, text):
+    """A value none of a field's alternatives accepts (oneOf) is answered with the list of
+    them, not the schema library's 'is not valid under any of the given schemas'."""
+    d = valid_dict()
+    d["settings"][field] = value
+    with pytest.raises(SceneError) as info:
+        Scene.from_dict(d)
+    assert info.value.field == field and info.value.message == text, str(info.value)
+
+
 def _walk_properties(schema, node, where):
     """Yield (where, property schema) for every property in the schema, following $ref."""
     if isinstance(node, dict):

@@ -110,7 +110,28 @@ def _schema_message(error) -> tuple[list, str]:
         if not given:
             return parts + keys[:1], f"required field is missing: give one of {choice}"
         return parts + given[1:2], f"give only one of {choice}, not {' and '.join(map(repr, given))}"
+    if kind == "oneOf":
+        words = [_alternative_text(sub) for sub in error.validator_value]
+        if all(words):  # simple alternatives (a type, a range, a constant): say them all
+            return parts, f"must be {', or '.join(words)}, got {_show(value)}"
     return parts, error.message
+
+
+def _alternative_text(sub: dict) -> str | None:
+    """One simple alternative of a oneOf in words ('a finite number in (0, 1)', 'null',
+    "'auto'"); None for anything more involved (lists of lists, objects)."""
+    if set(sub) == {"const"}:
+        c = sub["const"]
+        return json.dumps(c) if c is None or isinstance(c, bool) else repr(c)
+    t = sub.get("type")
+    if t in ("number", "integer") and set(sub) <= {"type", "minimum", "maximum", "exclusiveMinimum",
+                                                  "exclusiveMaximum"}:
+        lo = sub.get("minimum", sub.get("exclusiveMinimum"))
+        hi = sub.get("maximum", sub.get("exclusiveMaximum"))
+        return _range_text(lo, hi, "exclusiveMinimum" in sub, "exclusiveMaximum" in sub, t == "integer")
+    if isinstance(t, str) and set(sub) == {"type"}:
+        return _TYPE_WORDS.get(t, t)
+    return None
 
 
 def _is_index_rows(rows: Any, number_types: tuple) -> bool:
