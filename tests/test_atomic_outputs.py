@@ -92,7 +92,7 @@ def test_a_full_disk_keeps_the_old_table_whole_and_the_new_one_elsewhere(tmp_pat
 
     def fsync(fd):
         name = os.readlink(f"/proc/self/fd/{fd}")
-        if Path(name).parent == tmp_path and name.endswith(".json.%d.tmp" % os.getpid()):
+        if Path(name).parent == tmp_path and Path(name).name.startswith(".") and name.endswith(".json"):
             raise OSError(errno.ENOSPC, "No space left on device")
         return real_fsync(fd)
 

@@ -1,9 +1,7 @@
 """Files written by a render: multilayer OpenEXR images and radiometer tables (CSV, JSON)."""
 from __future__ import annotations
 
-import contextlib
 import csv
-import errno
 import itertools
 import json
 import os
@@ -16,7 +14,7 @@ import numpy as np
 
 from . import __version__
 from .render import COMPONENTS, IMAGE_COMPONENTS, RenderResult
-from .safe_io import atomic_file, csv_text, json_safe  # noqa: F401  (photic.output.* too)
+from .safe_io import atomic_file, atomic_path, csv_text, json_safe  # noqa: F401  (photic.output.* too)
 
 # What each component pass holds; the components sum to the total (radiance or value).
 COMPONENT_DESCRIPTIONS = {
@@ -101,18 +99,11 @@ def write_exr(path, result: RenderResult, camera: str) -> Path:
         header["photic:cancelled"] = "1: a partial result (the passes finished before the render was stopped)"
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    if path.is_dir():
-        raise IsADirectoryError(errno.EISDIR, "a folder of that name is in the way", str(path))
     # Written beside and renamed: a render killed while writing leaves no truncated file under
-    # the final name (os.replace is atomic on one file system).
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
+    # the final name.
+    with atomic_path(path) as tmp:
         with OpenEXR.File(header, channels) as f:
             f.write(str(tmp))
-        os.replace(tmp, path)
-    finally:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
     return path
 
 

@@ -12,33 +12,12 @@ import numpy as np
 
 
 @contextlib.contextmanager
-def atomic_file(path, mode: str = "w", **kw):
-    """Open ``path`` for writing under a temporary name beside it, flushed to the disk and
-    renamed to ``path`` when the block ends without an error (os.replace: atomic on one file
-    system); on an error (a full disk, a name that cannot be encoded) the temporary file is
-    removed and an existing file of that name is left as it was: a reader never sees a
-    truncated file under the final name."""
-    path = Path(path)
-    if path.is_dir():
-        raise IsADirectoryError(errno.EISDIR, "a folder of that name is in the way", str(path))
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, mode, **kw) as f:
-            yield f
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    finally:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-
-
-@contextlib.contextmanager
 def atomic_path(path):
     """A temporary path beside ``path`` (the same suffix, for writers that choose a format by
-    it) for a writer that takes a file name, not a file (Blender's image saver): renamed to
-    ``path`` when the block ends without an error, else removed, an existing file of that
-    name left as it was."""
+    it) for a writer that takes a file name, not a file (OpenEXR's, Blender's image saver):
+    renamed to ``path`` when the block ends without an error (os.replace: atomic on one file
+    system), else removed, an existing file of that name left as it was: a reader never sees a
+    truncated file under the final name."""
     path = Path(path)
     if path.is_dir():
         raise IsADirectoryError(errno.EISDIR, "a folder of that name is in the way", str(path))
@@ -51,6 +30,18 @@ def atomic_path(path):
     finally:
         with contextlib.suppress(OSError):
             tmp.unlink()
+
+
+@contextlib.contextmanager
+def atomic_file(path, mode: str = "w", **kw):
+    """Open ``path`` for writing under a temporary name beside it (atomic_path), flushed to
+    the disk and renamed to ``path`` when the block ends without an error (a full disk, a name
+    that cannot be encoded: the temporary file removed, an older file left whole)."""
+    with atomic_path(path) as tmp:
+        with open(tmp, mode, **kw) as f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
 
 
 _FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
