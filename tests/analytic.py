@@ -159,20 +159,26 @@ class FloorCase:
             return down["Eod"] + up["Eou"]
         return {**down, **up}[quantity]
 
+    @staticmethod
+    def _mean_over(L, lo, hi, npts=20001):
+        """Mean of L(mu) over mu in [lo, hi] (uniform in solid angle), on nodes of its own: a
+        mask on the shared grid cut the interval's ends by up to half a step (0.07 % of a 5 deg
+        cap's mean, 0.3 % of a 2 deg cap's)."""
+        mu = np.linspace(lo, hi, npts)
+        return trapezoid(L(mu), mu) / (hi - lo)
+
     def radiance_cap(self, looking_up, half_angle_deg):
         """Radiance averaged over a polar cap of looking directions around the zenith
         (looking_up) or the nadir; the sun's disk is not included (keep it outside the cap)."""
         c = np.cos(np.radians(half_angle_deg))
-        L = self.l_down(self.mu) if looking_up else self.l_up(self.mu)
-        return 2 * np.pi * self._int(np.where(self.mu >= c, L, 0.0)) / (2 * np.pi * (1 - c))
+        return self._mean_over(self.l_down if looking_up else self.l_up, c, 1.0)
 
     def radiance_bin(self, mu_lo, mu_hi):
         """Radiance averaged over looking directions with cos(polar angle from +z) in
         [mu_lo, mu_hi] (one side of the horizon), the sun's disk not included."""
         up = mu_lo >= 0
         lo, hi = (mu_lo, mu_hi) if up else (-mu_hi, -mu_lo)
-        L = self.l_down(self.mu) if up else self.l_up(self.mu)
-        return self._int(np.where((self.mu >= lo) & (self.mu <= hi), L, 0.0)) / (hi - lo)
+        return self._mean_over(self.l_down if up else self.l_up, max(lo, 1e-12), hi)
 
     def sun_in_bin(self, mu_lo, mu_hi):
         """Whether any direction of the refracted sun's disk looks into [mu_lo, mu_hi]."""
@@ -183,12 +189,13 @@ class FloorCase:
         looking directions around the nadir: the floor's light transmitted (n^-2 law) and the
         uniform sky reflected; the sun's glint is not included (keep it outside the cap)."""
         c = np.cos(np.radians(half_angle_deg))
-        mu_a = self.mu
-        mu_w = np.sqrt(1 - (1 - mu_a ** 2) / self.n ** 2)
-        t = 1 - fresnel_unpolarized(mu_a, 1.0, self.n)
-        up = self.l_floor * np.exp(-self.a * self.H / mu_w)
-        L = t * up / self.n ** 2 + fresnel_unpolarized(mu_a, 1.0, self.n) * self.l_sky
-        return 2 * np.pi * self._int(np.where(mu_a >= c, L, 0.0)) / (2 * np.pi * (1 - c))
+
+        def L(mu_a):
+            mu_w = np.sqrt(1 - (1 - mu_a ** 2) / self.n ** 2)
+            t = 1 - fresnel_unpolarized(mu_a, 1.0, self.n)
+            up = self.l_floor * np.exp(-self.a * self.H / mu_w)
+            return t * up / self.n ** 2 + fresnel_unpolarized(mu_a, 1.0, self.n) * self.l_sky
+        return self._mean_over(L, c, 1.0)
 
 
 # Six 90-degree perspective cameras that together see every direction once: (forward, up).
