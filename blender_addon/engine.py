@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import bpy
 
-from . import final_render, viewport
+from . import engine_loader, final_render, viewport
 
 
 class PhoticRenderEngine(bpy.types.RenderEngine):
@@ -74,7 +74,19 @@ def _auto_exposure_after_render(scene, *args):
         print(f"Photic: radiometer results not kept in the file: {exc}")
 
 
+@bpy.app.handlers.persistent
+def _warm_up_after_load(*args):
+    """A file whose scene renders with Photic: the engine imported in the background now."""
+    try:
+        if any(s.render.engine == PhoticRenderEngine.bl_idname for s in bpy.data.scenes):
+            engine_loader.warm_up()
+    except Exception as exc:  # noqa: BLE001  (a handler must not break Blender)
+        print(f"Photic: the engine was not imported ahead: {exc}")
+
+
 def register():
+    if _warm_up_after_load not in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.append(_warm_up_after_load)
     for panel in compatible_panels():
         if hasattr(panel, "COMPAT_ENGINES"):
             panel.COMPAT_ENGINES.add(PhoticRenderEngine.bl_idname)
@@ -83,6 +95,8 @@ def register():
 
 
 def unregister():
+    if _warm_up_after_load in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(_warm_up_after_load)
     for panel in compatible_panels():
         if hasattr(panel, "COMPAT_ENGINES"):
             panel.COMPAT_ENGINES.discard(PhoticRenderEngine.bl_idname)

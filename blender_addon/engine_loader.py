@@ -31,6 +31,7 @@ import importlib
 import os
 import site
 import sys
+import threading
 import traceback
 from pathlib import Path
 
@@ -90,6 +91,22 @@ def load_engine():
                   f"or in PHOTIC_SITE_PACKAGES.")
         traceback.print_exc()
     return _engine
+
+
+_warming: threading.Thread | None = None
+
+
+def warm_up() -> None:
+    """Import the engine in a background thread (once), so that the first viewport image or
+    render after a file with a Photic scene opens does not wait for it (about 0.1 s of numpy,
+    the core and Embree). Blender holds Python's lock only while it runs Python, so the import
+    proceeds while the interface is idle; a ``load_engine`` meanwhile simply waits for the same
+    modules (Python's import locks)."""
+    global _warming
+    if _engine is not None or _error is not None or _warming is not None:
+        return
+    _warming = threading.Thread(target=load_engine, name="photic-warm-up", daemon=True)
+    _warming.start()
 
 
 def engine_error() -> str | None:

@@ -1317,3 +1317,31 @@ def test_a_deeply_nested_iop_model_text_is_a_clear_error(empty, depth):
     message = str(info.value)
     assert "Object 'Sea'" in message and "IOP Model" in message, message
     assert "RecursionError" not in message and "internal error" not in message, message
+
+
+def test_opening_a_photic_file_imports_the_engine_ahead():
+    """A file whose scene renders with Photic starts the engine's import in the background
+    (the first viewport image or render then does not wait for it); a file that renders with
+    another engine does not. In a fresh process, where nothing imported the core yet."""
+    import subprocess
+    import sys
+    code = f"""
+import sys
+import bpy
+from photic.cli import load_addon
+addon = load_addon()
+addon.register()
+from photic_blender import engine_loader
+assert 'photic._core' not in sys.modules
+bpy.ops.wm.read_homefile(use_empty=True)   # another engine: nothing imported
+assert bpy.context.scene.render.engine != 'PHOTIC'
+assert engine_loader._warming is None and 'photic._core' not in sys.modules
+bpy.ops.wm.open_mainfile(filepath={str(BLENDS / "stepped_pool.blend")!r})
+assert engine_loader._warming is not None
+engine_loader._warming.join(60)
+assert 'photic._core' in sys.modules and engine_loader.load_engine() is not None
+print('OK')
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "OK" in out.stdout
