@@ -11,9 +11,9 @@ gridded water, glint, the canonical problems at a small budget, error bars) and 
 - the standard errors' calibration: the spread of 32 (radiometers) or 16 (pixels) seeds'
   means against the median reported standard error on four scenes (a flat sea in the exact
   mode, an oblique sun under waves, a bottom under strongly scattering water as in problem 6
-  of Mobley et al. 1993, and image pixels under waves). (The exact mode below waves is
-  flagged as untrusted in every run, by design: docs/physics.md; it has no calibration to
-  check.)
+  of Mobley et al. 1993, and image pixels under waves), and the exact mode below waves under
+  a 30 deg sun, which sends no sunlight past the beams (under grazing suns it is flagged as
+  untrusted instead: docs/physics.md).
 
 Every change to the integrators, the beams or the radiometers runs it before it lands. Its
 results (z-scores and calibration ratios) are printed at the end of the run, and with

@@ -1443,6 +1443,44 @@ inline bool may_cover(const Key& K, const Vec3& y, int medium, bool shifted, boo
 
 }  // namespace
 
+double Scene::sun_rehit_fraction(const Vec3& s, double ior, int threads) const {
+    if (ocean_water < 0 || ocean_flat) return 0.0;
+    const size_t nt = patch_triangles.size() / 3;
+    const size_t kBlock = 1024, nblock = (nt + kBlock - 1) / kBlock;
+    std::vector<double> carried(nblock, 0.0), missed(nblock, 0.0);
+    parallel_for(nblock, threads, [&](size_t b, int) {
+        for (size_t i = b * kBlock; i < std::min(nt, (b + 1) * kBlock); ++i) {
+            Vec3 p[3];
+            for (int j = 0; j < 3; ++j) {
+                const size_t k = patch_triangles[3 * i + j];
+                p[j] = Vec3(patch_vertices[3 * k], patch_vertices[3 * k + 1], patch_vertices[3 * k + 2]);
+            }
+            const Vec3 c = cross(p[1] - p[0], p[2] - p[0]);
+            const double twice_area = length(c);
+            if (!(twice_area > 0.0)) continue;
+            const Vec3 n = c * ((c.z >= 0.0 ? 1.0 : -1.0) / twice_area);
+            const double cs = dot(n, s);
+            if (!(cs > 0.0)) continue;
+            const double R = fresnel_unpolarized(cs, 1.0, ior), w = cs * twice_area;
+            const Vec3 o = (p[0] + p[1] + p[2]) * (1.0 / 3.0);
+            const double off = offset_for(o);
+            Hit h;
+            if (intersect_patch(o + n * off, n * (2.0 * cs) - s, kInf, &h, Side::kAbove)) missed[b] += w * R;
+            Vec3 t;
+            if (!refract(-s, n, 1.0, ior, &t)) continue;
+            carried[b] += w * (1.0 - R);
+            const double tmax = has_bottom && t.z < 0.0 ? (bottom_z - o.z) / t.z : kInf;
+            if (intersect_patch(o - n * off, t, tmax, &h, Side::kBelow)) missed[b] += w * (1.0 - R);
+        }
+    });
+    double in = 0.0, out = 0.0;
+    for (size_t b = 0; b < nblock; ++b) {
+        in += carried[b];
+        out += missed[b];
+    }
+    return in > 0.0 ? out / in : 0.0;
+}
+
 double Scene::beam_patch_copies() const {
     if (ocean_water < 0 || ocean_flat) return 1.0;
     auto copies = [&](const BeamGrid& g) {

@@ -141,6 +141,12 @@ PYBIND11_MODULE(_core, m) {
                                "Whether this pass's water beams use the grid built once for the sun's centre.")
         .def("beam_total_flux", &Scene::beam_total_flux)
         .def("beam_patch_copies", &Scene::beam_patch_copies)
+        .def("sun_rehit_fraction", [](const Scene& s, std::array<double, 3> sun, double ior, int threads) {
+            py::gil_scoped_release nogil;
+            return s.sun_rehit_fraction(normalize(to_vec(sun)), ior, threads);
+        }, py::arg("sun"), py::arg("ior"), py::arg("threads") = 0,
+           "The sunlight entering the water that the beams do not carry (the ocean patch's "
+           "reflections that meet it again, refractions that meet it from below), over what they carry.")
         .def_property_readonly("air_beam_count", [](const Scene& s) { return s.air_prisms.size(); })
         .def_property_readonly("has_air_beams", [](const Scene& s) { return s.has_air_beams(); })
         .def("air_beam_total_flux", &Scene::air_beam_total_flux)

@@ -334,6 +334,15 @@ public:
     // the beams of every period that reach a point, whose count grows as (spread / period)^2
     // where a small patch's beams spread over many periods on their way down.
     double beam_patch_copies() const;
+    // The sunlight entering the water that the beams do not carry, over what they carry: per
+    // face of the periodic ocean patch that the sun towards s lights (no wave's shadow taken
+    // off: an upper bound), the share it reflects that meets the patch again (the next wave,
+    // from above) and the share it refracts that meets the patch again from below, weighted by
+    // the face's projected area. Path tracing alone finds that light, along rare paths (through
+    // the surface into the sun's disk after a reflection), so where it is not negligible the
+    // exact mode's error bars cannot be trusted (photic.render.exact_mode_below_waves).
+    // 0 without a patch.
+    double sun_rehit_fraction(const Vec3& s, double ior, int threads) const;
     // Whether this pass's water beams are looked up in the grid built for the sun's centre.
     bool beam_grid_shared() const { return water_grid_ == &grid_ref_.grid; }
     double air_beam_total_flux() const;   // sum of the reflected prisms' fluxes (band 0)

@@ -501,26 +501,80 @@ def pixels_converged(img: ImageResult, threshold: float) -> np.ndarray:
 
 EXACT_BELOW_WAVES = "exact mode below waves: rare paths may be missing (set a forward cone)"
 
+# The share of the refracted sunlight that may be left to rare paths before the exact mode's
+# error bars are flagged (sun_rehit_fraction). Measured (scripts/se_calibration.py --surfaces
+# waves --cones 0, 16 seeds of 16,384 samples, the 20 m patch at 6 m/s): 0 at sun zeniths of
+# 0-35 deg and 7.4e-4 at 60 deg, with honest error bars (spread / reported 0.58-1.31); 1.2e-2 at
+# 70 deg, 3.6e-2 at 75 deg and 8.0e-2 at 80 deg, with Eo 5 m down 24x, 58x and 76x. Set about
+# 7x below the largest honest case (docs/verification.md).
+REHIT_LIMIT = 1e-4
 
-def exact_mode_below_waves(scene: Scene, hybrid: bool, forward_cone_deg: float, water_index: int) -> bool:
+
+def sun_rehit_fraction(scene: Scene, water_index: int) -> float:
+    """The sunlight entering water ``water_index`` that the beams do not carry, over what they
+    carry (``_core.Scene.sun_rehit_fraction``): what the ocean's wave patch reflects onto
+    itself and what it refracts back into itself from below, for the sun's centre. 0 for a
+    flat sea, a water mesh, or no sun; inf where sub-grid roughness spreads the reflections
+    (not counted: the flag then stays on)."""
+    w = scene.water[water_index]
+    if scene.sun is None or w.type != "ocean" or w.surface.kind == "flat":
+        return 0.0
+    surf = w.surface
+    if surf.roughness is not None:
+        return math.inf
+    from . import _core
+    from .compile import _oriented_up
+    mesh, period, normals = surf.patch()
+    v = np.asarray(mesh.vertices, np.float64)
+    tri = _oriented_up(v, np.asarray(mesh.triangles, np.int64))
+    core = _core.Scene()
+    core.nbands = 1
+    core.add_water(float(w.ior), np.zeros(1), [])
+    core.set_ocean_patch(0, v.astype(np.float32), tri.astype(np.uint32), float(v[:, 0].min()),
+                         float(v[:, 1].min()), float(period[0]), float(period[1]), float(surf.z),
+                         None if normals is None else normals.astype(np.float32))
+    if w.bottom_depth is not None:
+        core.add_material(np.zeros(1))
+        core.set_bottom(float(surf.z) - float(w.bottom_depth), 0)
+    core.commit()
+    return float(core.sun_rehit_fraction(tuple(float(c) for c in scene.sun.direction), float(w.ior),
+                                         int(scene.settings.threads)))
+
+
+def exact_mode_below_waves(scene: Scene, hybrid: bool, forward_cone_deg: float, water_index: int,
+                           rehit: float | None = None) -> bool:
     """Whether a radiometer in water body ``water_index`` (-1: air) has an error that cannot be
-    trusted because it is the hybrid's exact mode (forward cone 0) below a wavy sea.
+    trusted because it is the hybrid's exact mode (forward cone 0) below a wavy sea that sends
+    a share of the sunlight past the beams (``rehit``: sun_rehit_fraction, computed here when
+    not given).
 
-    There sunlight that steep facets refract upwards and the next wave reflects down reaches a
-    point only along paths that path tracing rarely finds (the beams end under the wave): over
-    16 seeds of 16,384 samples the spread of Eo's means was 28x (1 m) and 76x (5 m) the
-    reported error under an 80 deg sun, though honest under a 30 deg one (docs/verification.md).
-    With a forward cone (3 deg) the errors are honest at both."""
+    Sunlight that one wave reflects onto the next, or that a steep facet refracts into the
+    next wave from below, reaches a point only along paths that path tracing rarely finds (the
+    beams do not carry it): over 16 seeds of 16,384 samples the spread of Eo's means 5 m down
+    was 24-76x the reported error under 70-80 deg suns (1-8 % of the refracted light), though
+    honest under 0-60 deg ones (at most 7.4e-4; docs/verification.md). With a forward cone
+    (3 deg) the errors are honest at all of them."""
     if not (hybrid and scene.sun is not None and forward_cone_deg == 0.0 and water_index >= 0):
         return False
     w = scene.water[water_index]
-    return w.type == "ocean" and w.surface.kind != "flat"
+    if not (w.type == "ocean" and w.surface.kind != "flat"):
+        return False
+    if rehit is None:
+        rehit = sun_rehit_fraction(scene, water_index)
+    return not (rehit <= REHIT_LIMIT)
 
 
 def flag_exact_mode_below_waves(res: "RadiometerResult", scene: Scene, hybrid: bool,
-                                forward_cone_deg: float, water_index: int) -> None:
-    """Mark ``res`` untrusted where exact_mode_below_waves says so."""
-    if exact_mode_below_waves(scene, hybrid, forward_cone_deg, water_index):
+                                forward_cone_deg: float, water_index: int,
+                                rehits: dict | None = None) -> None:
+    """Mark ``res`` untrusted where exact_mode_below_waves says so. ``rehits``: a dict kept by
+    the caller across radiometers (water index -> sun_rehit_fraction), filled here."""
+    if not (hybrid and forward_cone_deg == 0.0 and water_index >= 0 and scene.sun is not None):
+        return
+    rehits = {} if rehits is None else rehits
+    if water_index not in rehits:
+        rehits[water_index] = sun_rehit_fraction(scene, water_index)
+    if exact_mode_below_waves(scene, hybrid, forward_cone_deg, water_index, rehits[water_index]):
         res.notes.append(EXACT_BELOW_WAVES)
         res.reliable[:] = False
 
@@ -608,6 +662,7 @@ class Renderer:
         self.integrator = resolve_integrator(scene)
         self.forward_cone_deg = resolve_forward_cone(scene) if self.integrator == "hybrid" else 0.0
         self.scene = scene
+        self._rehits: dict[int, float] = {}  # (flag_exact_mode_below_waves' per water body)
         self.samples = int(st.samples if samples is None else samples)
         self.radiometer_samples = int(st.radiometer_samples if radiometer_samples is None else radiometer_samples)
         self.seed = int(st.seed if seed is None else seed)
@@ -998,7 +1053,7 @@ class Renderer:
             res = radiometer_result(r, media[ri] or "air", [rad_rounds[ri][k] for k in sorted(rad_rounds[ri])])
             if res.samples == 0:  # cancelled before its first pass ended: no result, not 0 +- 0
                 break
-            flag_exact_mode_below_waves(res, scene, hybrid, self.forward_cone_deg, media_index[ri])
+            flag_exact_mode_below_waves(res, scene, hybrid, self.forward_cone_deg, media_index[ri], self._rehits)
             if targets[ri] is not None:
                 res.target_error = targets[ri]
                 res.relative_error = worst_relative_error(res.mean, res.stderr)

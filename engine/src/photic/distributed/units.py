@@ -291,13 +291,14 @@ class ItemMerger:
         for ci, cam in enumerate(scene.cameras):
             res.images[cam.name] = image_result(cam.name, self.cams[ci], self.cam_samples[ci],
                                                 components=image_components(self.item.scene))
+        rehits: dict[int, float] = {}
         for ri, r in enumerate(scene.all_radiometers()):
             if ri not in self.rads:
                 continue
             m = self.media.get(ri, -1)
             medium = "air" if m < 0 else scene.water[m].name
             rr = radiometer_result(r, medium, [x for x in self.rads[ri] if x.samples.max() > 0])
-            flag_exact_mode_below_waves(rr, scene, item.integrator == "hybrid", item.forward_cone_deg, m)
+            flag_exact_mode_below_waves(rr, scene, item.integrator == "hybrid", item.forward_cone_deg, m, rehits)
             res.radiometers.append(rr)
         t = self.unit_time_s
         res.stats = dict(self.counters, time_s=t, threads=0, seed=item.seed, samples=item.samples,
