@@ -91,6 +91,20 @@ def inelastic_group_warnings(scene) -> list[str]:
     return out
 
 
+def set_ocean_patch(core, wi: int, w) -> None:
+    """Water ``wi``'s ocean patch (given, or generated from its wave model) into ``core``."""
+    from .waves import SurfaceFoldsError, WaveNumbersError
+    try:
+        mesh, period, normals = w.surface.patch()
+    except (SurfaceFoldsError, WaveNumbersError) as exc:
+        raise SceneError(f"water '{w.name}'", "surface", str(exc)) from None
+    v = np.asarray(mesh.vertices, np.float64)
+    tri = _oriented_up(v, np.asarray(mesh.triangles, np.int64))
+    core.set_ocean_patch(wi, v.astype(np.float32), tri.astype(np.uint32), float(v[:, 0].min()),
+                         float(v[:, 1].min()), float(period[0]), float(period[1]), float(w.surface.z),
+                         None if normals is None else normals.astype(np.float32))
+
+
 def _oriented_up(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Triangles of a height-field patch wound so their normals point up (air side).
 
@@ -201,18 +215,8 @@ def compile_scene(scene: Scene, bands: slice | None = None, seed: int | None = N
                 core.set_ocean_flat(wi, float(surf.z))
                 zmean = float(surf.z)
             else:  # a patch, given or generated from a wave model
-                from .waves import SurfaceFoldsError, WaveNumbersError
-                try:
-                    mesh, period, normals = surf.patch()
-                except (SurfaceFoldsError, WaveNumbersError) as exc:
-                    raise SceneError(f"water '{w.name}'", "surface", str(exc)) from None
-                v = np.asarray(mesh.vertices, np.float64)
-                tri = _oriented_up(v, np.asarray(mesh.triangles, np.int64))
+                set_ocean_patch(core, wi, w)
                 zmean = float(surf.z)
-                core.set_ocean_patch(wi, v.astype(np.float32), tri.astype(np.uint32),
-                                     float(v[:, 0].min()), float(v[:, 1].min()),
-                                     float(period[0]), float(period[1]), zmean,
-                                     None if normals is None else normals.astype(np.float32))
             if surf.roughness is not None:
                 core.set_ocean_roughness(*surf.slope_variances(float(w.ior)))
             if w.bottom_depth is not None:

@@ -523,16 +523,11 @@ def sun_rehit_fraction(scene: Scene, water_index: int) -> float:
     if surf.roughness is not None:
         return math.inf
     from . import _core
-    from .compile import _oriented_up
-    mesh, period, normals = surf.patch()
-    v = np.asarray(mesh.vertices, np.float64)
-    tri = _oriented_up(v, np.asarray(mesh.triangles, np.int64))
+    from .compile import set_ocean_patch
     core = _core.Scene()
     core.nbands = 1
     core.add_water(float(w.ior), np.zeros(1), [])
-    core.set_ocean_patch(0, v.astype(np.float32), tri.astype(np.uint32), float(v[:, 0].min()),
-                         float(v[:, 1].min()), float(period[0]), float(period[1]), float(surf.z),
-                         None if normals is None else normals.astype(np.float32))
+    set_ocean_patch(core, 0, w)
     if w.bottom_depth is not None:
         core.add_material(np.zeros(1))
         core.set_bottom(float(surf.z) - float(w.bottom_depth), 0)
