@@ -381,3 +381,30 @@ def test_raman_in_gridded_water_matches_its_closed_form(zscore, integrator):
     assert se < 0.02 * value, (value, se)
     zscore(f"Raman Lu 531, grid ({integrator})", value, expect, se)
     assert abs(value - expect) < 3.5 * se + 2e-3 * expect, (value, se, expect)
+
+
+def test_raman_rrs_against_the_quasi_single_scattering_model():
+    """Clear water (pure water and a little CDOM, no particles), flat deep sea, sun 30 deg,
+    black sky: Photic's Raman Rrs against Westberry et al.'s (2013) quasi-single-scattering
+    model with its three simplifications put back (isotropic emission, the downward instead of
+    the scalar irradiance as the source, no surface transmittance; scripts/raman_qss.py):
+    within 1-5 % in the red, where the direct beam's single scattering is nearly all of it
+    (the model's upward attenuation 1.03 (a + b_b) against c), and at most 15 % above it in the
+    blue-green, where the water's elastic scattering adds light the model leaves out; never
+    below it. And never below the exact single scattering of the direct beam alone."""
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+    import raman_qss
+    sc = raman_qss.scene(0.0, True)
+    r = render(sc, radiometer_samples=100_000, threads=2).radiometers[0]
+    ed = math.cos(math.radians(raman_qss.ZENITH))
+    photic, se = r.components["raman"][0][0] / ed, r.components["raman"][1][0] / ed
+    m = raman_qss.models(raman_qss.scene(0.0, True))
+    lam = raman_qss.CENTERS
+    ok = (m["S"] > 0) & (lam >= 460)  # (440 nm's excitation is mostly outside the bands)
+    ratio = photic[ok] / m["exact"][ok]
+    red = lam[ok] >= 600
+    assert np.all((ratio[red] > 1.0) & (ratio[red] < 1.06)), ratio
+    assert np.all((ratio[~red] > 1.0) & (ratio[~red] < 1.15)), ratio
+    assert np.all(photic[ok] + 3 * se[ok] >= m["single"][ok]), (photic, m["single"])
