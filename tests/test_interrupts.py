@@ -95,3 +95,22 @@ def test_ctrl_c_on_a_local_cluster_batch_prints_no_worker_tracebacks(tmp_path):
     _, err = _clean_end(p, within_s=60)
     assert "interrupted; the finished units are kept" in err, err
     assert any(units.rglob("*.npz"))
+
+
+@pytest.mark.parametrize("launcher", ["console script", "python -m photic"])
+@pytest.mark.parametrize("after_s", [0.15, 0.3, 0.6])
+def test_ctrl_c_while_photic_render_loads_or_starts_prints_no_traceback(tmp_path, launcher, after_s):
+    """While numpy and the engine load, while the scene is read, or once the render runs, a
+    Ctrl-C ends ``photic render`` with status 130 and a line, never a KeyboardInterrupt
+    traceback (the entry point, photic._launch, handles it from Python's first ~0.05 s on)."""
+    script = Path(sys.executable).with_name("photic")
+    cmd = [str(script)] if launcher == "console script" else [sys.executable, "-m", "photic"]
+    if launcher == "console script" and not script.exists():
+        pytest.skip("the photic console script is not installed beside this Python")
+    p = subprocess.Popen([*cmd, "render", str(ROOT / "examples" / "stepped_pool.json"), "--out",
+                          str(tmp_path / "out"), "--threads", "1"], cwd=tmp_path, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, start_new_session=True)
+    time.sleep(after_s)
+    _ctrl_c(p)
+    out, err = _clean_end(p, within_s=30)
+    assert "photic: interrupted" in err or "stopping; writing the partial result" in err, err
