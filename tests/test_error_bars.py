@@ -79,7 +79,7 @@ def test_exact_mode_error_bars_are_honest():
 
 
 @pytest.mark.gate
-def test_exact_mode_error_bars_are_honest_below_waves_that_send_no_sunlight_past_the_beams():
+def test_exact_mode_error_bars_are_honest_below_waves_that_send_no_sunlight_past_the_beams(calibration):
     """Below the wavy patch under a 30 deg sun no sunlight is reflected from wave to wave or
     refracted back into a wave (sun_rehit_fraction 0), so the exact mode's radiometers are
     flagged for it (a seed's own heavy-tail test may still flag one), and their error bars are
@@ -87,6 +87,7 @@ def test_exact_mode_error_bars_are_honest_below_waves_that_send_no_sunlight_past
     about 0.6-0.8, on the safe side, under 30-70 deg suns.)"""
     ratios = radiometer_ratios("waves", 30.0, 0.0, 16384, ["Ed_1", "Eo_1", "Ed_5", "Eo_5"])
     for name, (ratio, flagged) in ratios.items():
+        calibration("waves, sun 30 deg, exact mode (16 seeds)", name, 16384, ratio, flagged)
         assert flagged <= 4, (name, flagged)
         assert 0.5 <= ratio <= 1.6, (name, ratio)
 

@@ -28,6 +28,19 @@ def main() -> int:
         signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         return cli_main()
-    except KeyboardInterrupt:
+    except BaseException as exc:  # (a compiled module's import turns one into an ImportError)
+        if not _interrupt_in(exc):
+            raise
         sys.stderr.write("\nphotic: interrupted\n")
         return 130
+
+
+def _interrupt_in(exc: BaseException | None) -> bool:
+    """Whether exc is a KeyboardInterrupt or was caused by one."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
