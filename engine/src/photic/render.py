@@ -499,7 +499,8 @@ def pixels_converged(img: ImageResult, threshold: float) -> np.ndarray:
     return np.all(ok, axis=-1)
 
 
-EXACT_BELOW_WAVES = "exact mode below waves: rare paths may be missing (set a forward cone)"
+EXACT_BELOW_WAVES = ("exact mode below waves: light passed from wave to wave arrives along rare paths "
+                     "(the error may be too small: more samples)")
 
 # The share of the refracted sunlight that may be left to rare paths before the exact mode's
 # error bars are flagged (sun_rehit_fraction). Measured (scripts/se_calibration.py --surfaces
@@ -547,8 +548,9 @@ def exact_mode_below_waves(scene: Scene, hybrid: bool, forward_cone_deg: float, 
     next wave from below, reaches a point only along paths that path tracing rarely finds (the
     beams do not carry it): over 16 seeds of 16,384 samples the spread of Eo's means 5 m down
     was 24-76x the reported error under 70-80 deg suns (1-8 % of the refracted light), though
-    honest under 0-60 deg ones (at most 7.4e-4; docs/verification.md). With a forward cone
-    (3 deg) the errors are honest at all of them."""
+    honest under 0-60 deg ones (at most 7.4e-4; docs/verification.md). A forward cone is no
+    remedy there: its errors look honest, but under the 80 deg sun its Ed 1 m down is 23 % below
+    pure path tracing's, where the exact mode's agrees (docs/verification.md)."""
     if not (hybrid and scene.sun is not None and forward_cone_deg == 0.0 and water_index >= 0):
         return False
     w = scene.water[water_index]
