@@ -341,7 +341,7 @@ public:
     // the face's projected area. Path tracing alone finds that light, along rare paths (through
     // the surface into the sun's disk after a reflection), so where it is not negligible the
     // exact mode's error bars cannot be trusted (photic.render.exact_mode_below_waves).
-    // 0 without a patch.
+    // 0 without a patch. (Over at most 65,536 of the patch's faces, spread over it.)
     double sun_rehit_fraction(const Vec3& s, double ior, int threads) const;
     // Whether this pass's water beams are looked up in the grid built for the sun's centre.
     bool beam_grid_shared() const { return water_grid_ == &grid_ref_.grid; }

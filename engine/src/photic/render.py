@@ -511,28 +511,30 @@ EXACT_BELOW_WAVES = ("exact mode below waves: light passed from wave to wave arr
 REHIT_LIMIT = 1e-4
 
 
-def sun_rehit_fraction(scene: Scene, water_index: int) -> float:
+def sun_rehit_fraction(scene: Scene, water_index: int, core=None) -> float:
     """The sunlight entering water ``water_index`` that the beams do not carry, over what they
     carry (``_core.Scene.sun_rehit_fraction``): what the ocean's wave patch reflects onto
     itself and what it refracts back into itself from below, for the sun's centre. 0 for a
     flat sea, a water mesh, or no sun; inf where sub-grid roughness spreads the reflections
-    (not counted: the flag then stays on)."""
+    (not counted: the flag then stays on). ``core``: the scene's compiled core (a render's),
+    else a small one of the patch alone is made."""
     w = scene.water[water_index]
     if scene.sun is None or w.type != "ocean" or w.surface.kind == "flat":
         return 0.0
     surf = w.surface
     if surf.roughness is not None:
         return math.inf
-    from . import _core
-    from .compile import set_ocean_patch
-    core = _core.Scene()
-    core.nbands = 1
-    core.add_water(float(w.ior), np.zeros(1), [])
-    set_ocean_patch(core, 0, w)
-    if w.bottom_depth is not None:
-        core.add_material(np.zeros(1))
-        core.set_bottom(float(surf.z) - float(w.bottom_depth), 0)
-    core.commit()
+    if core is None:
+        from . import _core
+        from .compile import set_ocean_patch
+        core = _core.Scene()
+        core.nbands = 1
+        core.add_water(float(w.ior), np.zeros(1), [])
+        set_ocean_patch(core, 0, w)
+        if w.bottom_depth is not None:
+            core.add_material(np.zeros(1))
+            core.set_bottom(float(surf.z) - float(w.bottom_depth), 0)
+        core.commit()
     return float(core.sun_rehit_fraction(tuple(float(c) for c in scene.sun.direction), float(w.ior),
                                          int(scene.settings.threads)))
 
@@ -857,6 +859,9 @@ class Renderer:
             if self._cancel.is_set():
                 core.cancel()
             if gi == 0:
+                if hybrid and self.forward_cone_deg == 0.0:  # (the flag's share, from this core)
+                    for wi in range(len(scene.water)):
+                        self._rehits[wi] = sun_rehit_fraction(scene, wi, core)
                 check_sensors_off_boundaries(core, scene)
                 result.warnings = scene_warnings(scene) + inelastic_group_warnings(scene) + sensor_warnings(core, scene)
             for ri in range(len(radiometers)):
