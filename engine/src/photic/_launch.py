@@ -6,6 +6,7 @@ KeyboardInterrupt traceback. For ``photic blend`` the first one while loading is
 interrupted before the render."""
 from __future__ import annotations
 
+import os
 import signal
 import sys
 
@@ -14,25 +15,32 @@ def main() -> int:
     import photic
 
     blend = sys.argv[1:2] == ["blend"]
+    interrupted = []
 
     def loading(signum, frame):
         if blend and not getattr(photic, "_interrupted_while_loading", False):
             photic._interrupted_while_loading = True
             return
-        sys.stderr.write("photic: interrupted while loading\n")
+        interrupted.append(True)
         raise SystemExit(130)
 
     signal.signal(signal.SIGINT, loading)
-    from .cli import main as cli_main
-    if not blend:  # (photic.cli's commands install their own handlers from here on)
-        signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
+        from .cli import main as cli_main
+        if not blend:  # (photic.cli's commands install their own handlers from here on)
+            signal.signal(signal.SIGINT, signal.default_int_handler)
         return cli_main()
-    except BaseException as exc:  # (a compiled module's import turns one into an ImportError)
-        if not _interrupt_in(exc):
+    except BaseException as exc:
+        # (a compiled module's import turns the interrupt into an ImportError, which numpy's
+        # import turns into another)
+        if not (interrupted or _interrupt_in(exc)):
             raise
         sys.stderr.write("\nphotic: interrupted\n")
-        return 130
+        # Out at once: an interrupt met inside code that a compiled module ran marks the
+        # interpreter, which would then end itself by SIGINT at exit (status -2, not 130).
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(130)
 
 
 def _interrupt_in(exc: BaseException | None) -> bool:
