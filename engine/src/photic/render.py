@@ -859,7 +859,7 @@ class Renderer:
             if self._cancel.is_set():
                 core.cancel()
             if gi == 0:
-                if hybrid and self.forward_cone_deg == 0.0:  # (the flag's share, from this core)
+                if hybrid and self.forward_cone_deg == 0.0 and radiometers:  # (the flag's share)
                     for wi in range(len(scene.water)):
                         self._rehits[wi] = sun_rehit_fraction(scene, wi, core)
                 check_sensors_off_boundaries(core, scene)
