@@ -178,19 +178,49 @@ AUTO_CONE_TAU = 10.0       # optically deeper than this: use a forward cone
 AUTO_CONE_DEG = 3.0        # its half-angle
 
 
+def beams_laterally_uniform(scene: Scene) -> bool:
+    """Whether the sun's beams in the water are the same at every point of a depth: every
+    ocean flat (sub-grid roughness only tilts each pass's one beam), no water meshes and no
+    opaque objects. Only there is a forward cone exact: it keeps the light scattered within it
+    inside its own beam, going straight on, where real small-angle scattering spreads it
+    sideways. Wave patches' caustics and shadows, and objects' shadows, then stay too sharp:
+    point by point 0.83-1.16x the exact mode's Ed 5 m below waves under a 30 deg sun, 0.77x 1 m
+    down under an 80 deg one (docs/verification.md). (Gridded water's structure, metres across,
+    is left out.)"""
+    if scene.meshes:
+        return False
+    return all(w.type == "ocean" and w.surface.kind == "flat" for w in scene.water)
+
+
 def resolve_forward_cone(scene: Scene) -> float:
     """Forward-scattering cone half-angle (degrees) for the hybrid integrator.
 
     The rule ('auto'): shallow or clear water (c * depth <= 10) keeps the full phase function,
-    which is exact and cheap there; optically deeper water keeps the light scattered within
-    3 degrees of the beam in the beam (c_beam = a + b (1 - f)), which removes the rare, very
-    bright paths that head straight at the refracted sun. The error of each choice on the
+    which is exact and cheap there; optically deeper water whose beams are the same across
+    (beams_laterally_uniform: flat seas without objects) keeps the light scattered within 3
+    degrees of the beam in the beam (c_beam = a + b (1 - f)), which removes the rare, very bright
+    paths that head straight at the refracted sun. Below waves or with objects the cone would be
+    biased, so the full phase function is kept there too. The error of each choice on the
     canonical problems is measured by `photic bench --error` (docs/benchmarks.md).
     """
     value = scene.settings.forward_cone_deg
     if value != "auto":
         return float(value)
+    if not beams_laterally_uniform(scene):
+        return 0.0
     return AUTO_CONE_DEG if optical_depth_scale(scene) > AUTO_CONE_TAU else 0.0
+
+
+FORWARD_CONE_STRUCTURE = ("forward cone with waves or objects: light scattered within the cone stays in "
+                          "its beam, so caustics and shadows stay too sharp (local errors of 10-20 % "
+                          "measured; forward_cone_deg 0 is exact)")
+
+
+def forward_cone_warning(scene: Scene, hybrid: bool, forward_cone_deg: float) -> list[str]:
+    """The render log's warning for a forward cone whose beams are not uniform across."""
+    if not (hybrid and forward_cone_deg > 0.0 and scene.sun is not None) or beams_laterally_uniform(scene):
+        return []
+    return [f"settings.forward_cone_deg = {forward_cone_deg:g} deg: {FORWARD_CONE_STRUCTURE}"]
 
 
 def concentric_disk(u1: float, u2: float) -> tuple[float, float]:
@@ -563,11 +593,18 @@ def exact_mode_below_waves(scene: Scene, hybrid: bool, forward_cone_deg: float, 
     return not (rehit <= REHIT_LIMIT)
 
 
-def flag_exact_mode_below_waves(res: "RadiometerResult", scene: Scene, hybrid: bool,
-                                forward_cone_deg: float, water_index: int,
-                                rehits: dict | None = None) -> None:
-    """Mark ``res`` untrusted where exact_mode_below_waves says so. ``rehits``: a dict kept by
-    the caller across radiometers (water index -> sun_rehit_fraction), filled here."""
+def flag_beam_modes(res: "RadiometerResult", scene: Scene, hybrid: bool,
+                    forward_cone_deg: float, water_index: int,
+                    rehits: dict | None = None) -> None:
+    """Mark ``res`` untrusted where the hybrid's mode makes its error bar too small: a forward
+    cone whose beams are not uniform across (every radiometer: the bias reaches the light that
+    leaves the water too; 1.6 % in the mean of 64 points 5 m down), or exact_mode_below_waves.
+    ``rehits``: a dict kept by the caller across radiometers (water index ->
+    sun_rehit_fraction), filled here."""
+    if hybrid and forward_cone_deg > 0.0 and scene.sun is not None and not beams_laterally_uniform(scene):
+        res.notes.append(FORWARD_CONE_STRUCTURE)
+        res.reliable[:] = False
+        return
     if not (hybrid and forward_cone_deg == 0.0 and water_index >= 0 and scene.sun is not None):
         return
     rehits = {} if rehits is None else rehits
@@ -661,7 +698,7 @@ class Renderer:
         self.integrator = resolve_integrator(scene)
         self.forward_cone_deg = resolve_forward_cone(scene) if self.integrator == "hybrid" else 0.0
         self.scene = scene
-        self._rehits: dict[int, float] = {}  # (flag_exact_mode_below_waves' per water body)
+        self._rehits: dict[int, float] = {}  # (flag_beam_modes' per water body)
         self.samples = int(st.samples if samples is None else samples)
         self.radiometer_samples = int(st.radiometer_samples if radiometer_samples is None else radiometer_samples)
         self.seed = int(st.seed if seed is None else seed)
@@ -863,7 +900,8 @@ class Renderer:
                     for wi in range(len(scene.water)):
                         self._rehits[wi] = sun_rehit_fraction(scene, wi, core)
                 check_sensors_off_boundaries(core, scene)
-                result.warnings = scene_warnings(scene) + inelastic_group_warnings(scene) + sensor_warnings(core, scene)
+                result.warnings = (scene_warnings(scene) + inelastic_group_warnings(scene) + sensor_warnings(core, scene)
+                                   + forward_cone_warning(scene, hybrid, self.forward_cone_deg))
             for ri in range(len(radiometers)):
                 m = core.radiometer_medium(ri)
                 media[ri] = "air" if m < 0 else scene.water[m].name
@@ -1055,7 +1093,7 @@ class Renderer:
             res = radiometer_result(r, media[ri] or "air", [rad_rounds[ri][k] for k in sorted(rad_rounds[ri])])
             if res.samples == 0:  # cancelled before its first pass ended: no result, not 0 +- 0
                 break
-            flag_exact_mode_below_waves(res, scene, hybrid, self.forward_cone_deg, media_index[ri], self._rehits)
+            flag_beam_modes(res, scene, hybrid, self.forward_cone_deg, media_index[ri], self._rehits)
             if targets[ri] is not None:
                 res.target_error = targets[ri]
                 res.relative_error = worst_relative_error(res.mean, res.stderr)

@@ -32,7 +32,7 @@ import numpy as np
 from ..compile import compile_scene, scene_band_groups
 from ..estimates import CameraSums, RadiometerSums
 from ..render import (COMPONENTS, ImageResult, RenderResult, _mean_stderr, build_pass_beams,
-                      camera_passes, flag_exact_mode_below_waves, image_components, image_result,
+                      camera_passes, flag_beam_modes, image_components, image_result,
                       radiometer_passes,
                       radiometer_result, round_seed, uses_beams)
 from .job import Item, Job
@@ -298,7 +298,7 @@ class ItemMerger:
             m = self.media.get(ri, -1)
             medium = "air" if m < 0 else scene.water[m].name
             rr = radiometer_result(r, medium, [x for x in self.rads[ri] if x.samples.max() > 0])
-            flag_exact_mode_below_waves(rr, scene, item.integrator == "hybrid", item.forward_cone_deg, m, rehits)
+            flag_beam_modes(rr, scene, item.integrator == "hybrid", item.forward_cone_deg, m, rehits)
             res.radiometers.append(rr)
         t = self.unit_time_s
         res.stats = dict(self.counters, time_s=t, threads=0, seed=item.seed, samples=item.samples,
