@@ -247,6 +247,11 @@ class PhoticObjectProperties(bpy.types.PropertyGroup):
     wave_resolution: IntProperty(name="Resolution", default=64, min=4, max=1024,
                                  update=_wave_update,
                                  description="Grid points per side of the wave patch")
+    wave_mesh_refinement: IntProperty(name="Mesh Refinement", default=1, min=1, max=16,
+                                      description="Triangles this many times finer than the grid: "
+                                                  "the same waves, sampled finer, so that caustics "
+                                                  "deep down follow the shortest waves (costs its "
+                                                  "square in triangles; the viewport shows the grid)")
     wave_seed: IntProperty(name="Seed", default=0, min=0, update=_wave_update,
                            description="Seed of the random wave amplitudes")
     choppiness: FloatProperty(name="Choppiness", default=0.0, min=0.0, max=3.0,

@@ -206,6 +206,7 @@ class PHOTIC_PT_object(PhoticPanel, bpy.types.Panel):
                     col.prop(p, "wave_sinusoids")
                 col.prop(p, "wave_patch_size")
                 col.prop(p, "wave_resolution")
+                col.prop(p, "wave_mesh_refinement")
                 col.prop(p, "wave_seed")
                 col.prop(p, "choppiness")
                 col.prop(p, "wave_depth")

@@ -52,7 +52,8 @@ def wave_model(photic, obj, time_s: float):
         choppiness=float(f"{p.choppiness:.7g}"),
         water_depth_m=float(p.wave_depth) if p.wave_depth > 0 else None,
         fetch_m=float(p.fetch) if p.wave_spectrum == "jonswap" else None,
-        sinusoids=parse_sinusoids(p.wave_sinusoids) if p.wave_spectrum == "sinusoids" else ())
+        sinusoids=parse_sinusoids(p.wave_sinusoids) if p.wave_spectrum == "sinusoids" else (),
+        mesh_refinement=int(p.wave_mesh_refinement))
 
 
 def restore_mesh(obj) -> None:
@@ -101,7 +102,8 @@ def update_object(obj, scene=None) -> str | None:
     scene = scene or bpy.context.scene
     try:
         model = wave_model(photic, obj, frame_time(scene))
-        vertices, triangles, _ = photic.waves.surface_patch(model, 0.0)
+        # (the grid's mesh: a refined one is the same surface, r^2 times heavier to draw)
+        vertices, triangles, _ = photic.waves.surface_patch(model.replace(mesh_refinement=1), 0.0)
     except (ValueError, photic.scene.SceneError) as exc:
         return str(exc)
     mesh = _preview_mesh(obj)

@@ -709,6 +709,13 @@ def test_wave_model_surface_previews_animates_and_exports(empty):
     scene.photic.integrator, scene.photic.samples = "PATH", 1
     res = Renderer(exported, samples=1).run()
     assert np.isfinite(res.images["Camera"].mean).all() and res.images["Camera"].mean.mean() > 0
+    # Mesh Refinement: exported with the model; the viewport keeps the grid's mesh
+    p.wave_mesh_refinement = 4
+    scene.frame_set(26)
+    assert len(sea.data.vertices) == 17 * 17
+    exported, _ = export_current()
+    assert exported.water[0].surface.waves.mesh_refinement == 4
+    assert len(exported.water[0].surface.patch()[0].triangles) == 2 * 64 * 64
 
 
 def test_switching_wave_model_off_gives_the_object_its_mesh_back(empty):
@@ -1220,6 +1227,7 @@ ADDON_PARAMETERS = [
     ("PhoticObjectProperties", "wave_patch_size", "surface.patch_size_m", 1.0, "a preview"),
     ("PhoticObjectProperties", "wave_resolution", "surface.resolution", 1.0, "a preview"),
     ("PhoticObjectProperties", "wave_seed", "surface.seed", 1.0, "int32"),
+    ("PhoticObjectProperties", "wave_mesh_refinement", "surface.mesh_refinement", 1.0, None),
     ("PhoticObjectProperties", "choppiness", "surface.choppiness", 1.0, "folds beyond"),
     ("PhoticObjectProperties", "fetch", "surface.fetch_m", 1.0, "open end"),
     ("PhoticObjectProperties", "wave_depth", "surface.water_depth_m", 1.0, "0 is deep water"),

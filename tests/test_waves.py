@@ -274,6 +274,10 @@ def test_directional_spectrum_integrates_to_the_frequency_spectrum(depth, spread
     ({"spreading": "cos4"}, "spreading"),
     ({"spectrum": "waves"}, "spectrum"),
     ({"seed": -1}, "seed"),
+    ({"mesh_refinement": 0}, "mesh_refinement"),
+    ({"mesh_refinement": 2.5}, "mesh_refinement"),
+    ({"mesh_refinement": 17}, "mesh_refinement"),
+    ({"resolution": (16, 1024), "mesh_refinement": 8}, "mesh_refinement"),
     ({"spectrum": "sinusoids", "sinusoids": ((0.1, 7.0, 0.0, 0.0),)}, "sinusoids[0]"),
     ({"spectrum": "sinusoids", "sinusoids": ((0.1, 0.5, 0.0, 0.0),)}, "sinusoids[0]"),
     ({"spectrum": "sinusoids", "sinusoids": ((-0.1, 10.0, 0.0, 0.0),)}, "sinusoids[0].amplitude_m"),
@@ -401,3 +405,31 @@ def test_scene_format_documents_every_wave_field():
     doc = (Path(__file__).parents[1] / "docs" / "scene-format.md").read_text()
     missing = [key for key in _WAVE_KEYS if f"| `{key}` |" not in doc]
     assert not missing, missing
+
+
+@pytest.mark.parametrize("choppiness", [0.0, 0.8])
+def test_mesh_refinement_samples_the_same_waves_finer(choppiness):
+    """mesh_refinement r: (r Nx + 1) x (r Ny + 1) vertices on the same band-limited surface,
+    which at the grid's own points are the grid's heights and normals (choppy: to the Newton
+    resampling's accuracy); between them the surface is the waves' Fourier series (checked at
+    points of the finer grid against the direct sum, photic.waves.evaluate), where the coarse
+    facets are off by about the shortest waves' curvature."""
+    model = W.WaveModel(spectrum="jonswap", wind_speed=6.0, fetch_m=5e4, patch_size_m=(20.0, 20.0),
+                        resolution=(32, 24), choppiness=choppiness)
+    v1, t1, n1 = W.surface_patch(model)
+    v4, t4, n4 = W.surface_patch(model.replace(mesh_refinement=4))
+    assert v4.shape == (129 * 97, 3) and len(t4) == 16 * len(t1)
+    tol = 1e-12 if choppiness == 0 else 1e-3 * float(np.abs(v1[:, 2]).max())
+    on_grid = v4.reshape(129, 97, 3)[::4, ::4].reshape(-1, 3)
+    assert np.abs(on_grid - v1).max() <= tol
+    assert np.abs(n4.reshape(129, 97, 3)[::4, ::4].reshape(-1, 3) - n1).max() <= (1e-12 if choppiness == 0 else 1e-2)
+    if choppiness == 0:
+        # a quarter of a cell along x, on the grid's lines along y
+        fine = v4.reshape(129, 97, 3)[1::4, ::4][:32, :24]
+        h, _, _ = W.evaluate(model, fine[..., 0], fine[..., 1])
+        assert np.abs(fine[..., 2] - h).max() <= 1e-9
+        # the coarse facets there (their linear interpolation) miss the waves by much more
+        c = v1.reshape(33, 25, 3)[..., 2]
+        lin = 0.75 * c[:-1, :-1] + 0.25 * c[1:, :-1]
+        assert np.sqrt(np.mean((lin - h) ** 2)) > 1e6 * np.sqrt(np.mean((fine[..., 2] - h) ** 2))
+        assert np.sqrt(np.mean((lin - h) ** 2)) > 1e-3 * np.sqrt(np.mean(h ** 2))

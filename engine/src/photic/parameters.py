@@ -158,6 +158,8 @@ PARAMETERS: dict[str, Parameter] = {p.key: p for p in [
        "measured 1 to 7)"),
     Parameter("surface.spreading_s", "", 10.0, 0.0, 1000.0, "exponent s of cos2s spreading",
        lo_open=True),
+    Parameter("surface.mesh_refinement", "", 1, 1, 16, "triangles of a wave patch this many times finer "
+       "than its grid (the same waves)", integer=True),
     # light
     Parameter("sun.zenith_deg", "deg", None, 0.0, 90.0,
        "solar zenith angle: the sun must be above the horizon", hi_open=True),

@@ -113,6 +113,14 @@ class WaveModel:
     - ``gamma`` [-] (3.3): peak enhancement of ``"jonswap"``, >= 1 (1 is the PM shape).
     - ``spreading`` [-] ("cos2s"): one of :data:`SPREADINGS`.
     - ``spreading_s`` [-] (10.0): exponent s of ``"cos2s"``, > 0.
+    - ``mesh_refinement`` [-] (1): the patch's triangles are this many times finer than the
+      grid, 1..16: the same band-limited surface (the grid's waves, no shorter ones) sampled
+      at ``(r Nx) x (r Ny)`` points by its own Fourier series, so that the facets follow the
+      curvature of the shortest waves, which the grid samples only 2-4 times per wavelength.
+      Caustics below the surface depend on it: Ed at points 5 m below a 20 m, 64 x 64 JONSWAP
+      patch (6 m/s, sun 30 deg) differs from the 16x surface's by 49 % RMS at 1x, 11 % at 4x,
+      2.5 % at 8x (1 m down: 9.6, 2.6, 1.0 %); the mean over the period does not change.
+      Costs r^2 more triangles (docs/physics.md, "Wave patches and caustics").
     - ``sinusoids`` [m, m, deg, rad] (()): for ``"sinusoids"``: (amplitude, wavelength,
       direction of travel, phase) per component, ``h = a cos(k.x - omega t + phase)``. Each
       wavevector must fit the patch a whole number of times in x and y and be resolved by
@@ -133,6 +141,7 @@ class WaveModel:
     spreading: str = "cos2s"
     spreading_s: float = 10.0
     sinusoids: tuple[tuple[float, float, float, float], ...] = ()
+    mesh_refinement: int = 1
 
     def __post_init__(self):
         # Lists become tuples so that the model is hashable (patches are cached by model).
@@ -184,6 +193,12 @@ class WaveModel:
         check("gamma", self.gamma)
         _check_choice(obj, f"{prefix}spreading", self.spreading, SPREADINGS)
         check("spreading_s", self.spreading_s)
+        check("mesh_refinement", self.mesh_refinement)
+        for i, n in enumerate(self.resolution):
+            if int(n) * int(self.mesh_refinement) > MAX_MESH_POINTS:
+                raise SceneError(obj, f"{prefix}mesh_refinement", f"resolution[{i}] x mesh_refinement is "
+                                                                  f"{int(n) * int(self.mesh_refinement)}, more than "
+                                                                  f"{MAX_MESH_POINTS} mesh points per side")
         if self.spectrum != "sinusoids":
             if self.sinusoids:
                 raise SceneError(obj, f"{prefix}sinusoids", "only allowed for spectrum "
@@ -614,6 +629,27 @@ def _resample_displaced(fld: WaveField) -> tuple[np.ndarray, np.ndarray]:
     return height, normals
 
 
+MAX_MESH_POINTS = 4096  # a patch mesh's points per side (resolution x mesh_refinement)
+
+
+def refined_field(fld: WaveField, r: int) -> WaveField:
+    """The same band-limited surface as ``fld`` on a grid ``r`` times finer: its Fourier
+    amplitudes placed among the finer grid's modes (no new waves), all fields synthesised
+    there. At the coarse grid's points the values are ``fld``'s (to rounding)."""
+    if r == 1:
+        return fld
+    model = fld.model
+    (nx, ny), (lx, ly) = model.resolution, model.patch_size_m
+    big = np.zeros((r * nx, r * ny), dtype=np.complex128)
+    big[np.ix_(_mode_numbers(nx) % (r * nx), _mode_numbers(ny) % (r * ny))] = fld.amplitudes
+    kx = (2.0 * math.pi / lx) * _mode_numbers(r * nx)[:, None]
+    ky = (2.0 * math.pi / ly) * _mode_numbers(r * ny)[None, :]
+    values = _fields_from_amplitudes(big, kx, ky, float(model.choppiness))
+    fine = model.replace(resolution=(r * nx, r * ny), mesh_refinement=1)
+    return WaveField(model=fine, x=np.arange(r * nx) * (lx / (r * nx)), y=np.arange(r * ny) * (ly / (r * ny)),
+                     amplitudes=big, **values)
+
+
 def patch_mesh(fld: WaveField, z: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The periodic triangle patch of a field: (vertices (N, 3) float64 m, triangles (M, 3)
     int64, vertex normals (N, 3) unit, up).
@@ -660,7 +696,7 @@ def surface_patch(model: WaveModel, z: float = 0.0) -> tuple[np.ndarray, np.ndar
     worker rendering many time steps does not hold many 2048^2 patches (about 0.4 GB each)."""
     try:
         with np.errstate(all="ignore"):
-            out = patch_mesh(generate(model), z)
+            out = patch_mesh(refined_field(generate(model), int(model.mesh_refinement)), z)
     except (ArithmeticError, ValueError) as exc:
         if isinstance(exc, SurfaceFoldsError):
             raise

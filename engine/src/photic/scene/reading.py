@@ -356,7 +356,7 @@ def _finish_ocean(label: str, d: dict, iops, ior: float, surface: OceanSurface) 
 # Keys of a "waves" surface: the fields of photic.waves.WaveModel.
 _WAVE_KEYS = ("spectrum", "wind_speed", "wind_direction_deg", "patch_size_m", "resolution",
               "seed", "time_s", "choppiness", "water_depth_m", "fetch_m", "gamma", "spreading",
-              "spreading_s", "sinusoids")
+              "spreading_s", "sinusoids", "mesh_refinement")
 _SINUSOID_KEYS = ("amplitude_m", "wavelength_m", "direction_deg", "phase_rad")
 
 

@@ -193,7 +193,7 @@ def _wave_model_to_dict(model: Any) -> dict:
             value = [float(x) for x in value]
         elif key == "resolution":
             value = [int(x) for x in value]
-        elif key == "seed":
+        elif key in ("seed", "mesh_refinement"):
             value = int(value)
         elif key in ("fetch_m", "water_depth_m") and value is None:
             continue
