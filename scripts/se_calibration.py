@@ -79,8 +79,10 @@ def scene(surface: str, zenith: float, cone: float, seed: int, camera: bool) -> 
 
 
 def flagged(r) -> bool:
-    """Whether Photic marked this estimate's standard error as unreliable."""
-    return not bool(np.all(getattr(r, "reliable", np.ones(1, bool))))
+    """Whether Photic marked this estimate's standard error as unreliable for a reason of the
+    sampling (not the wave mesh's error alone: photic.render.sampling_untrusted)."""
+    from photic.render import sampling_untrusted
+    return sampling_untrusted(r)
 
 
 def radiometer_rows(surface, zenith, cone, n, seeds, threads):

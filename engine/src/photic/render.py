@@ -593,14 +593,114 @@ def exact_mode_below_waves(scene: Scene, hybrid: bool, forward_cone_deg: float, 
     return not (rehit <= REHIT_LIMIT)
 
 
+# A radiometer below a wave model's patch is flagged where refining the patch's mesh 2x moves
+# its value (the direct sun's share of it) by more than this, or twice its standard error.
+MESH_LIMIT = 0.02
+# (the patch refined 2x for the estimate: at most this many triangles, else no estimate)
+MESH_CHECK_TRIANGLES = 1 << 20
+WAVE_MESH_NOTE = "wave mesh"
+
+
+def wave_mesh_sensitivity(scene: Scene, water_index: int, threads: int = 0) -> dict | None:
+    """Per radiometer in water ``water_index`` (by name): how much the refracted sun's direct
+    light there (summed over its beams, the first band) changes when the ocean's wave patch is
+    meshed 2x finer (``mesh_refinement`` doubled: the same waves), relative to the scene's own
+    mesh: an estimate of the mesh's error at that point (docs/physics.md, "Wave patches and
+    caustics": it reads about half to all of the error against a 16x mesh). Computed on cores of
+    the water alone (no objects, the sun's centre, the disk's blur). None where it does not
+    apply (no sun, no wave model) or the refined patch would exceed MESH_CHECK_TRIANGLES."""
+    import copy
+    w = scene.water[water_index]
+    if scene.sun is None or w.type != "ocean" or w.surface.kind != "waves" or w.surface.roughness is not None:
+        return None
+    model = w.surface.waves
+    r = int(model.mesh_refinement)
+    nx, ny = (int(n) for n in model.resolution)
+    if 2 * (2 * r * nx) * (2 * r * ny) > MESH_CHECK_TRIANGLES or 2 * r > 16:
+        return None
+    names = [rad.name for rad in scene.all_radiometers()]
+    values = []
+    for refinement in (r, 2 * r):
+        sc = copy.copy(scene)
+        sc.meshes, sc.cameras = [], []
+        sc.water = list(scene.water)
+        wc = copy.copy(w)
+        wc.surface = copy.copy(w.surface)
+        wc.surface.waves = model.replace(mesh_refinement=refinement)
+        sc.water[water_index] = wc
+        core = compile_scene(sc, slice(0, 1), hybrid=True, threads=threads)
+        core.build_beams(tuple(float(c) for c in scene.sun.direction), threads)
+        e = {}
+        for ri, rad in enumerate(scene.all_radiometers()):
+            if core.radiometer_medium(ri) == water_index:
+                e[rad.name] = sum(b[1][0] for b in core.beams_at(tuple(float(c) for c in rad.position), water_index))
+        values.append(e)
+    out = {}
+    for name in names:
+        if name in values[0]:
+            a, b = values[0][name], values[1][name]
+            out[name] = abs(b - a) / max(abs(a), abs(b)) if max(abs(a), abs(b)) > 0 else 0.0
+    return out
+
+
+def wave_mesh_warnings(scene: Scene, hybrid: bool) -> list[str]:
+    """The render log's warning for wave patches whose mesh error at the radiometers is not
+    estimated (wave_mesh_sensitivity: the patch refined 2x would be too large)."""
+    if not (hybrid and scene.sun is not None and scene.all_radiometers()):
+        return []
+    out = []
+    for w in scene.water:
+        if w.type == "ocean" and w.surface.kind == "waves" and w.surface.roughness is None:
+            r = int(w.surface.waves.mesh_refinement)
+            nx, ny = (int(n) for n in w.surface.waves.resolution)
+            if 2 * (2 * r * nx) * (2 * r * ny) > MESH_CHECK_TRIANGLES or 2 * r > 16:
+                out.append(f"water '{w.name}': the wave mesh's error at the radiometers is not estimated (its "
+                           f"patch refined 2x would exceed {MESH_CHECK_TRIANGLES:,} triangles); see docs/physics.md, "
+                           f"'Wave patches and caustics'")
+    return out
+
+
+def flag_wave_mesh(res: "RadiometerResult", sensitivity: float | None) -> None:
+    """Mark ``res`` untrusted where the wave mesh's estimated error (``sensitivity`` times its
+    direct-sun component) exceeds MESH_LIMIT of its value and twice its standard error."""
+    if sensitivity is None or not sensitivity > 0:
+        return
+    direct = res.components.get("beam_direct")
+    if direct is None:
+        return
+    est = sensitivity * np.abs(np.asarray(direct[0], float))
+    limit = np.maximum(MESH_LIMIT * np.abs(res.mean), 2.0 * res.stderr)
+    if np.any(est > limit):
+        share = float(np.max(est / np.maximum(np.abs(res.mean), 1e-300)))
+        res.notes.append(f"{WAVE_MESH_NOTE}: the value changes by about {100 * share:.0f} % when the wave patch's "
+                         f"mesh is refined 2x (set surface.mesh_refinement; docs/physics.md)")
+        res.reliable[:] = False
+
+
+def sampling_untrusted(res: "RadiometerResult") -> bool:
+    """Whether ``res``'s error bar is flagged for a reason of the sampling (heavy tails, too
+    few passes, light left to rare paths, a biased cone), not only for the wave mesh's error
+    (flag_wave_mesh), which more samples do not change: what the error bars' calibration
+    counts."""
+    if np.all(res.reliable):
+        return False
+    return not res.notes or any(not n.startswith(WAVE_MESH_NOTE) for n in res.notes)
+
+
 def flag_beam_modes(res: "RadiometerResult", scene: Scene, hybrid: bool,
                     forward_cone_deg: float, water_index: int,
-                    rehits: dict | None = None) -> None:
+                    rehits: dict | None = None, meshes: dict | None = None) -> None:
     """Mark ``res`` untrusted where the hybrid's mode makes its error bar too small: a forward
     cone whose beams are not uniform across (every radiometer: the bias reaches the light that
-    leaves the water too; 1.6 % in the mean of 64 points 5 m down), or exact_mode_below_waves.
-    ``rehits``: a dict kept by the caller across radiometers (water index ->
-    sun_rehit_fraction), filled here."""
+    leaves the water too; 1.6 % in the mean of 64 points 5 m down), exact_mode_below_waves, or
+    a wave mesh too coarse for the caustics at its point (flag_wave_mesh). ``rehits``,
+    ``meshes``: dicts kept by the caller across radiometers (water index ->
+    sun_rehit_fraction, wave_mesh_sensitivity), filled here."""
+    if hybrid and water_index >= 0 and meshes is not None:
+        if water_index not in meshes:
+            meshes[water_index] = wave_mesh_sensitivity(scene, water_index, int(scene.settings.threads))
+        if meshes[water_index] is not None:
+            flag_wave_mesh(res, meshes[water_index].get(res.name))
     if hybrid and forward_cone_deg > 0.0 and scene.sun is not None and not beams_laterally_uniform(scene):
         res.notes.append(FORWARD_CONE_STRUCTURE)
         res.reliable[:] = False
@@ -699,6 +799,7 @@ class Renderer:
         self.forward_cone_deg = resolve_forward_cone(scene) if self.integrator == "hybrid" else 0.0
         self.scene = scene
         self._rehits: dict[int, float] = {}  # (flag_beam_modes' per water body)
+        self._meshes: dict[int, dict | None] = {}
         self.samples = int(st.samples if samples is None else samples)
         self.radiometer_samples = int(st.radiometer_samples if radiometer_samples is None else radiometer_samples)
         self.seed = int(st.seed if seed is None else seed)
@@ -901,7 +1002,8 @@ class Renderer:
                         self._rehits[wi] = sun_rehit_fraction(scene, wi, core)
                 check_sensors_off_boundaries(core, scene)
                 result.warnings = (scene_warnings(scene) + inelastic_group_warnings(scene) + sensor_warnings(core, scene)
-                                   + forward_cone_warning(scene, hybrid, self.forward_cone_deg))
+                                   + forward_cone_warning(scene, hybrid, self.forward_cone_deg)
+                                   + (wave_mesh_warnings(scene, hybrid) if radiometers else []))
             for ri in range(len(radiometers)):
                 m = core.radiometer_medium(ri)
                 media[ri] = "air" if m < 0 else scene.water[m].name
@@ -1093,7 +1195,7 @@ class Renderer:
             res = radiometer_result(r, media[ri] or "air", [rad_rounds[ri][k] for k in sorted(rad_rounds[ri])])
             if res.samples == 0:  # cancelled before its first pass ended: no result, not 0 +- 0
                 break
-            flag_beam_modes(res, scene, hybrid, self.forward_cone_deg, media_index[ri], self._rehits)
+            flag_beam_modes(res, scene, hybrid, self.forward_cone_deg, media_index[ri], self._rehits, self._meshes)
             if targets[ri] is not None:
                 res.target_error = targets[ri]
                 res.relative_error = worst_relative_error(res.mean, res.stderr)

@@ -292,13 +292,14 @@ class ItemMerger:
             res.images[cam.name] = image_result(cam.name, self.cams[ci], self.cam_samples[ci],
                                                 components=image_components(self.item.scene))
         rehits: dict[int, float] = {}
+        meshes: dict[int, dict | None] = {}
         for ri, r in enumerate(scene.all_radiometers()):
             if ri not in self.rads:
                 continue
             m = self.media.get(ri, -1)
             medium = "air" if m < 0 else scene.water[m].name
             rr = radiometer_result(r, medium, [x for x in self.rads[ri] if x.samples.max() > 0])
-            flag_beam_modes(rr, scene, item.integrator == "hybrid", item.forward_cone_deg, m, rehits)
+            flag_beam_modes(rr, scene, item.integrator == "hybrid", item.forward_cone_deg, m, rehits, meshes)
             res.radiometers.append(rr)
         t = self.unit_time_s
         res.stats = dict(self.counters, time_s=t, threads=0, seed=item.seed, samples=item.samples,
