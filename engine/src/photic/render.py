@@ -689,14 +689,16 @@ def sampling_untrusted(res: "RadiometerResult") -> bool:
 
 def flag_beam_modes(res: "RadiometerResult", scene: Scene, hybrid: bool,
                     forward_cone_deg: float, water_index: int,
-                    rehits: dict | None = None, meshes: dict | None = None) -> None:
+                    rehits: dict | None = None, meshes: dict | None = None,
+                    check_meshes: bool = True) -> None:
     """Mark ``res`` untrusted where the hybrid's mode makes its error bar too small: a forward
     cone whose beams are not uniform across (every radiometer: the bias reaches the light that
     leaves the water too; 1.6 % in the mean of 64 points 5 m down), exact_mode_below_waves, or
     a wave mesh too coarse for the caustics at its point (flag_wave_mesh). ``rehits``,
     ``meshes``: dicts kept by the caller across radiometers (water index ->
-    sun_rehit_fraction, wave_mesh_sensitivity), filled here."""
-    if hybrid and water_index >= 0 and meshes is not None:
+    sun_rehit_fraction, wave_mesh_sensitivity), filled here; ``check_meshes`` False: no new
+    wave-mesh check (a cancelled render does not wait for one)."""
+    if hybrid and water_index >= 0 and meshes is not None and (check_meshes or water_index in meshes):
         if water_index not in meshes:
             meshes[water_index] = wave_mesh_sensitivity(scene, water_index, int(scene.settings.threads))
         if meshes[water_index] is not None:
@@ -1195,7 +1197,8 @@ class Renderer:
             res = radiometer_result(r, media[ri] or "air", [rad_rounds[ri][k] for k in sorted(rad_rounds[ri])])
             if res.samples == 0:  # cancelled before its first pass ended: no result, not 0 +- 0
                 break
-            flag_beam_modes(res, scene, hybrid, self.forward_cone_deg, media_index[ri], self._rehits, self._meshes)
+            flag_beam_modes(res, scene, hybrid, self.forward_cone_deg, media_index[ri], self._rehits, self._meshes,
+                            check_meshes=not cancelled)
             if targets[ri] is not None:
                 res.target_error = targets[ri]
                 res.relative_error = worst_relative_error(res.mean, res.stderr)
