@@ -406,3 +406,36 @@ def test_radiometers_below_a_coarse_wave_mesh_are_flagged():
     assert wave_mesh_sensitivity(big, 0) is None
     assert any("not estimated" in w for w in wave_mesh_warnings(big, True))
     assert not wave_mesh_warnings(points_scene(30.0, 0.0, 1), True)
+
+
+def test_a_cancel_during_the_wave_mesh_check_stops_it(monkeypatch):
+    """The check's beam builds (about 4 s here: the patch refined 4x and 8x) stop at a cancel:
+    the render ends at once, cancelled, with its radiometers and no mesh flags."""
+    import threading
+    import time as _time
+    import photic.render as R
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+    from forward_cone_points import points_scene
+    sc = points_scene(30.0, 0.0, 1, refinement=4)
+    sc.radiometers = sc.radiometers[::8]
+    started = threading.Event()
+    original = R.wave_mesh_sensitivity
+
+    def check(*args, **kwargs):
+        started.set()
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(R, "wave_mesh_sensitivity", check)
+    r = R.Renderer(sc, radiometer_samples=64, threads=2)
+    out = {}
+    th = threading.Thread(target=lambda: out.setdefault("res", r.run()))
+    th.start()
+    assert started.wait(60)
+    _time.sleep(0.3)
+    t0 = _time.perf_counter()
+    r.cancel()
+    th.join(30)
+    assert not th.is_alive() and _time.perf_counter() - t0 < 2.0
+    res = out["res"]
+    assert res.cancelled and len(res.radiometers) == len(sc.radiometers)
+    assert not any(n.startswith(R.WAVE_MESH_NOTE) for x in res.radiometers for n in x.notes)

@@ -601,14 +601,17 @@ MESH_CHECK_TRIANGLES = 1 << 20
 WAVE_MESH_NOTE = "wave mesh"
 
 
-def wave_mesh_sensitivity(scene: Scene, water_index: int, threads: int = 0) -> dict | None:
+def wave_mesh_sensitivity(scene: Scene, water_index: int, threads: int = 0, cancel=None,
+                          hold=None) -> dict | None:
     """Per radiometer in water ``water_index`` (by name): how much the refracted sun's direct
     light there (summed over its beams, the first band) changes when the ocean's wave patch is
     meshed 2x finer (``mesh_refinement`` doubled: the same waves), relative to the scene's own
     mesh: an estimate of the mesh's error at that point (docs/physics.md, "Wave patches and
     caustics": it reads about half to all of the error against a 16x mesh). Computed on cores of
     the water alone (no objects, the sun's centre, the disk's blur). None where it does not
-    apply (no sun, no wave model) or the refined patch would exceed MESH_CHECK_TRIANGLES."""
+    apply (no sun, no wave model) or the refined patch would exceed MESH_CHECK_TRIANGLES, or
+    when ``cancel`` (a threading.Event) is set: ``hold(core)`` is told each core it builds, for
+    a caller's cancel to stop its build at once."""
     import copy
     w = scene.water[water_index]
     if scene.sun is None or w.type != "ocean" or w.surface.kind != "waves" or w.surface.roughness is not None:
@@ -629,7 +632,13 @@ def wave_mesh_sensitivity(scene: Scene, water_index: int, threads: int = 0) -> d
         wc.surface.waves = model.replace(mesh_refinement=refinement)
         sc.water[water_index] = wc
         core = compile_scene(sc, slice(0, 1), hybrid=True, threads=threads)
+        if hold is not None:
+            hold(core)
+        if cancel is not None and cancel.is_set():
+            return None
         core.build_beams(tuple(float(c) for c in scene.sun.direction), threads)
+        if cancel is not None and cancel.is_set():
+            return None
         e = {}
         for ri, rad in enumerate(scene.all_radiometers()):
             if core.radiometer_medium(ri) == water_index:
@@ -1190,6 +1199,15 @@ class Renderer:
                 if done_px is None:
                     done_px = np.zeros(img.mean.shape[:2], bool)
                 img.converged = done_px | pixels_converged(img, self.noise_threshold)
+        # The wave-mesh check (flag_wave_mesh) before the radiometers' results: cancellable,
+        # and a render cancelled before or during it does not wait for it.
+        if hybrid and not cancelled:
+            for wi in sorted({m for m in media_index if m >= 0}):
+                if wi not in self._meshes:
+                    self._meshes[wi] = wave_mesh_sensitivity(scene, wi, self.threads, self._cancel,
+                                                             lambda c: setattr(self, "_core", c))
+            self._core = None
+            cancelled = self._cancel.is_set()
         reached = 0
         for ri, r in enumerate(radiometers):
             if not rad_rounds[ri]:
