@@ -439,3 +439,26 @@ def test_a_cancel_during_the_wave_mesh_check_stops_it(monkeypatch):
     res = out["res"]
     assert res.cancelled and len(res.radiometers) == len(sc.radiometers)
     assert not any(n.startswith(R.WAVE_MESH_NOTE) for x in res.radiometers for n in x.notes)
+
+
+def test_the_wave_mesh_check_builds_only_the_beams_its_radiometers_can_meet():
+    """With a few radiometers the check's beams come only from the patch's faces within reach
+    of them (_beam_source_region: the level surface's refracted sun ray through each, half
+    the depth across and more): the same sensitivities as from the whole patch, to rounding;
+    radiometers over the whole period take the whole patch. (The region's own effect on the
+    builds is the core's beam_source_region, which keeps only the faces centred in it.)"""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+    from forward_cone_points import points_scene
+    from photic.render import _beam_source_region, wave_mesh_sensitivity
+    for zenith in (0.0, 30.0, 60.0):
+        sc = points_scene(zenith, 0.0, 1, refinement=2)
+        sc.radiometers = [r for r in sc.radiometers if r.name in ("Ed_1_9", "Ed_5_9", "Ed_5_42", "Ed_1_63")]
+        region = _beam_source_region(sc, sc.water[0], [r.position for r in sc.radiometers])
+        assert len(region) == 12
+        some = wave_mesh_sensitivity(sc, 0, 2)
+        whole = wave_mesh_sensitivity(sc, 0, 2, restrict=False)
+        assert some.keys() == whole.keys() and len(some) == 4
+        for k in some:
+            assert some[k] == pytest.approx(whole[k], rel=1e-9, abs=1e-12), (zenith, k)
+    full = points_scene(30.0, 0.0, 1)
+    assert _beam_source_region(full, full.water[0], [r.position for r in full.radiometers]) == []

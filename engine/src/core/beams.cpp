@@ -152,6 +152,17 @@ void Scene::make_prisms(const Vec3& s, const Spectrum& e_sun, bool air, int thre
             }
             st.water = ocean_water;
             st.periodic = true;
+            if (!beam_source_region.empty()) {
+                const Vec3 c = (st.p[0] + st.p[1] + st.p[2]) * (1.0 / 3.0);
+                bool inside = false;
+                for (size_t k = 0; k + 2 < beam_source_region.size() && !inside; k += 3) {
+                    double dx = c.x - beam_source_region[k], dy = c.y - beam_source_region[k + 1];
+                    dx -= patch_lx * std::round(dx / patch_lx);
+                    dy -= patch_ly * std::round(dy / patch_ly);
+                    inside = dx * dx + dy * dy <= beam_source_region[k + 2] * beam_source_region[k + 2];
+                }
+                if (!inside) continue;
+            }
             if (dot(st.nf, s) > 0.0) src.push_back(st);
         }
     }

@@ -130,6 +130,9 @@ PYBIND11_MODULE(_core, m) {
            "With the sun-disk blur (beam_sun_blur, no rough sea) the prisms are the sun centre's "
            "and keep_prisms keeps those of the last build, only the shadow rays' direction and a "
            "flat sea's beams following sun_direction.")
+        .def_readwrite("beam_source_region", &Scene::beam_source_region,
+                       "(x, y, radius) triples (m) of disks over the ocean patch (periodic): only its "
+                       "faces centred in one send beams; empty (default): every face.")
         .def_readwrite("beam_sun_blur", &Scene::beam_sun_blur,
                        "Spread each prism over the sun's disk (built once for its centre) instead of "
                        "drawing a direction in the disk for every build.")

@@ -260,6 +260,10 @@ public:
     double cone_half_angle = 0.0;     // forward-scattering cone (radians); 0: full phase function
     int beam_max_level = 5;           // adaptive subdivision levels of a surface triangle
     double beam_min_area_fraction = 1e-6;  // floor of a cross-section, times the source area
+    // Where the ocean patch sends beams from: (x, y, radius) triples, in m, of disks over the
+    // patch (periodic); its faces whose centres lie in none send none. Empty: the whole patch.
+    // (For checks that need the beams at a few points only: photic.render's wave-mesh check.)
+    std::vector<double> beam_source_region;
     // The sun's finite disk in the beams (beams.cpp, prism_eval): true, the prisms are built
     // once for the sun's centre and each spreads its light over the image of the disk (an
     // ellipse growing with path length), which bounds the irradiance of caustic foci where a

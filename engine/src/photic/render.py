@@ -601,8 +601,34 @@ MESH_CHECK_TRIANGLES = 1 << 20
 WAVE_MESH_NOTE = "wave mesh"
 
 
+def _beam_source_region(scene: Scene, w, positions: list) -> list[float]:
+    """(x, y, radius) triples over the ocean patch from which the refracted sun can reach the
+    given points in its water: around where the level surface's refracted sun ray through each
+    point comes up, half the point's depth across (a refracted ray leans at most ~27 deg from
+    that ray there) plus three grid cells and the waves' height; [] where they cover the patch."""
+    lx, ly = (float(x) for x in w.surface.waves.patch_size_m)
+    nx, ny = (int(n) for n in w.surface.waves.resolution)
+    mesh = w.surface.patch()[0]
+    z = np.asarray(mesh.vertices)[:, 2]
+    level, hmax = float(np.mean(z)), float(np.max(np.abs(z - np.mean(z))))
+    s = np.asarray(scene.sun.direction, float)
+    ior = float(w.ior)
+    sin_t = math.sqrt(max(0.0, 1.0 - s[2] ** 2)) / ior
+    cos_t = math.sqrt(max(0.0, 1.0 - sin_t ** 2))
+    sh = math.hypot(s[0], s[1])
+    back = np.array([s[0] / sh * sin_t, s[1] / sh * sin_t, cos_t]) if sh > 0 else np.array([0.0, 0.0, 1.0])
+    out, area = [], 0.0
+    for p in positions:
+        depth = max(0.0, level - float(p[2]))
+        t = depth / back[2]
+        r = 0.5 * depth + 3.0 * max(lx / nx, ly / ny) + 2.0 * hmax * (1.0 + sin_t / max(cos_t, 1e-3))
+        out += [float(p[0]) + back[0] * t, float(p[1]) + back[1] * t, r]
+        area += math.pi * r * r
+    return [] if area >= lx * ly else out
+
+
 def wave_mesh_sensitivity(scene: Scene, water_index: int, threads: int = 0, cancel=None,
-                          hold=None) -> dict | None:
+                          hold=None, restrict: bool = True) -> dict | None:
     """Per radiometer in water ``water_index`` (by name): how much the refracted sun's direct
     light there (summed over its beams, the first band) changes when the ocean's wave patch is
     meshed 2x finer (``mesh_refinement`` doubled: the same waves), relative to the scene's own
@@ -611,7 +637,9 @@ def wave_mesh_sensitivity(scene: Scene, water_index: int, threads: int = 0, canc
     the water alone (no objects, the sun's centre, the disk's blur). None where it does not
     apply (no sun, no wave model) or the refined patch would exceed MESH_CHECK_TRIANGLES, or
     when ``cancel`` (a threading.Event) is set: ``hold(core)`` is told each core it builds, for
-    a caller's cancel to stop its build at once."""
+    a caller's cancel to stop its build at once. ``restrict``: the builds take only the faces
+    whose beams can reach the radiometers (_beam_source_region), which gives the same beams
+    there at a fraction of the cost for a few radiometers."""
     import copy
     w = scene.water[water_index]
     if scene.sun is None or w.type != "ocean" or w.surface.kind != "waves" or w.surface.roughness is not None:
@@ -622,7 +650,7 @@ def wave_mesh_sensitivity(scene: Scene, water_index: int, threads: int = 0, canc
     if 2 * (2 * r * nx) * (2 * r * ny) > MESH_CHECK_TRIANGLES or 2 * r > 16:
         return None
     names = [rad.name for rad in scene.all_radiometers()]
-    values = []
+    values, region = [], None
     for refinement in (r, 2 * r):
         sc = copy.copy(scene)
         sc.meshes, sc.cameras = [], []
@@ -636,6 +664,12 @@ def wave_mesh_sensitivity(scene: Scene, water_index: int, threads: int = 0, canc
             hold(core)
         if cancel is not None and cancel.is_set():
             return None
+        if restrict:
+            if region is None:  # (the same for both meshes: the coarser one's cells)
+                inside = [rad.position for ri, rad in enumerate(scene.all_radiometers())
+                          if core.radiometer_medium(ri) == water_index]
+                region = _beam_source_region(scene, wc, inside)
+            core.beam_source_region = region
         core.build_beams(tuple(float(c) for c in scene.sun.direction), threads)
         if cancel is not None and cancel.is_set():
             return None
