@@ -346,6 +346,7 @@ def test_sun_rehit_fraction_of_a_ridged_sea(zenith, alpha):
     got = sun_rehit_fraction(sc, 0)
     assert got == pytest.approx(expected, abs=0.01 * max(expected, 0.05)), (got, expected)
 
+
 def test_a_forward_cone_is_flagged_where_the_beams_have_structure_across():
     """A forward cone keeps the light scattered within it in its beam, going straight on, so
     waves' caustics and shadows, and objects' shadows, stay too sharp (Ed 5 m down 0.83-1.16x
@@ -460,5 +461,14 @@ def test_the_wave_mesh_check_builds_only_the_beams_its_radiometers_can_meet():
         assert some.keys() == whole.keys() and len(some) == 4
         for k in some:
             assert some[k] == pytest.approx(whole[k], rel=1e-9, abs=1e-12), (zenith, k)
+    # the core keeps only the faces centred in the disks (the build is that much smaller)
+    from photic.compile import compile_scene
+    counts = []
+    for reg in ([], region):
+        core = compile_scene(sc, slice(0, 1), hybrid=True, threads=2)
+        core.beam_source_region = reg
+        core.build_beams(tuple(float(c) for c in sc.sun.direction), 2)
+        counts.append(core.beam_count)
+    assert 0 < counts[1] < 0.8 * counts[0], counts
     full = points_scene(30.0, 0.0, 1)
     assert _beam_source_region(full, full.water[0], [r.position for r in full.radiometers]) == []
