@@ -1238,6 +1238,9 @@ class Renderer:
         if hybrid and not cancelled:
             for wi in sorted({m for m in media_index if m >= 0}):
                 if wi not in self._meshes:
+                    w = scene.water[wi]
+                    if w.type == "ocean" and w.surface.kind == "waves":
+                        report(f"radiometers: checking the wave mesh of water '{w.name}'")
                     self._meshes[wi] = wave_mesh_sensitivity(scene, wi, self.threads, self._cancel,
                                                              lambda c: setattr(self, "_core", c))
             self._core = None
