@@ -216,9 +216,14 @@ FORWARD_CONE_STRUCTURE = ("forward cone with waves or objects: light scattered w
                           "measured; forward_cone_deg 0 is exact)")
 
 
+def forward_cone_biased(scene: Scene, hybrid: bool, forward_cone_deg: float) -> bool:
+    """Whether the hybrid's forward cone is in use where its beams are not uniform across."""
+    return hybrid and forward_cone_deg > 0.0 and scene.sun is not None and not beams_laterally_uniform(scene)
+
+
 def forward_cone_warning(scene: Scene, hybrid: bool, forward_cone_deg: float) -> list[str]:
     """The render log's warning for a forward cone whose beams are not uniform across."""
-    if not (hybrid and forward_cone_deg > 0.0 and scene.sun is not None) or beams_laterally_uniform(scene):
+    if not forward_cone_biased(scene, hybrid, forward_cone_deg):
         return []
     return [f"settings.forward_cone_deg = {forward_cone_deg:g} deg: {FORWARD_CONE_STRUCTURE}"]
 
@@ -601,6 +606,17 @@ MESH_CHECK_TRIANGLES = 1 << 20
 WAVE_MESH_NOTE = "wave mesh"
 
 
+def _wave_mesh_checked(w) -> bool | None:
+    """Whether the wave-mesh check covers water body ``w``: None where it does not apply (no
+    wave model, or sub-grid roughness), False where its patch refined 2x would exceed
+    MESH_CHECK_TRIANGLES (or the refinement's limit), True otherwise."""
+    if w.type != "ocean" or w.surface.kind != "waves" or w.surface.roughness is not None:
+        return None
+    r = int(w.surface.waves.mesh_refinement)
+    nx, ny = (int(n) for n in w.surface.waves.resolution)
+    return not (2 * (2 * r * nx) * (2 * r * ny) > MESH_CHECK_TRIANGLES or 2 * r > 16)
+
+
 def _beam_source_region(scene: Scene, w, positions: list) -> list[float]:
     """(x, y, radius) triples over the ocean patch from which the refracted sun can reach the
     given points in its water: around where the level surface's refracted sun ray through each
@@ -642,14 +658,11 @@ def wave_mesh_sensitivity(scene: Scene, water_index: int, threads: int = 0, canc
     there at a fraction of the cost for a few radiometers."""
     import copy
     w = scene.water[water_index]
-    if scene.sun is None or w.type != "ocean" or w.surface.kind != "waves" or w.surface.roughness is not None:
+    if scene.sun is None or not _wave_mesh_checked(w):
         return None
     model = w.surface.waves
     r = int(model.mesh_refinement)
-    nx, ny = (int(n) for n in model.resolution)
-    if 2 * (2 * r * nx) * (2 * r * ny) > MESH_CHECK_TRIANGLES or 2 * r > 16:
-        return None
-    names = [rad.name for rad in scene.all_radiometers()]
+    radiometers = scene.all_radiometers()
     values, region = [], None
     for refinement in (r, 2 * r):
         sc = copy.copy(scene)
@@ -666,7 +679,7 @@ def wave_mesh_sensitivity(scene: Scene, water_index: int, threads: int = 0, canc
             return None
         if restrict:
             if region is None:  # (the same for both meshes: the coarser one's cells)
-                inside = [rad.position for ri, rad in enumerate(scene.all_radiometers())
+                inside = [rad.position for ri, rad in enumerate(radiometers)
                           if core.radiometer_medium(ri) == water_index]
                 region = _beam_source_region(scene, wc, inside)
             core.beam_source_region = region
@@ -674,15 +687,14 @@ def wave_mesh_sensitivity(scene: Scene, water_index: int, threads: int = 0, canc
         if cancel is not None and cancel.is_set():
             return None
         e = {}
-        for ri, rad in enumerate(scene.all_radiometers()):
+        for ri, rad in enumerate(radiometers):
             if core.radiometer_medium(ri) == water_index:
                 e[rad.name] = sum(b[1][0] for b in core.beams_at(tuple(float(c) for c in rad.position), water_index))
         values.append(e)
     out = {}
-    for name in names:
-        if name in values[0]:
-            a, b = values[0][name], values[1][name]
-            out[name] = abs(b - a) / max(abs(a), abs(b)) if max(abs(a), abs(b)) > 0 else 0.0
+    for name, a in values[0].items():
+        b = values[1][name]
+        out[name] = abs(b - a) / max(abs(a), abs(b)) if max(abs(a), abs(b)) > 0 else 0.0
     return out
 
 
@@ -693,13 +705,10 @@ def wave_mesh_warnings(scene: Scene, hybrid: bool) -> list[str]:
         return []
     out = []
     for w in scene.water:
-        if w.type == "ocean" and w.surface.kind == "waves" and w.surface.roughness is None:
-            r = int(w.surface.waves.mesh_refinement)
-            nx, ny = (int(n) for n in w.surface.waves.resolution)
-            if 2 * (2 * r * nx) * (2 * r * ny) > MESH_CHECK_TRIANGLES or 2 * r > 16:
-                out.append(f"water '{w.name}': the wave mesh's error at the radiometers is not estimated (its "
-                           f"patch refined 2x would exceed {MESH_CHECK_TRIANGLES:,} triangles); see docs/physics.md, "
-                           f"'Wave patches and caustics'")
+        if _wave_mesh_checked(w) is False:
+            out.append(f"water '{w.name}': the wave mesh's error at the radiometers is not estimated (its "
+                       f"patch refined 2x would exceed {MESH_CHECK_TRIANGLES:,} triangles); see docs/physics.md, "
+                       f"'Wave patches and caustics'")
     return out
 
 
@@ -746,7 +755,7 @@ def flag_beam_modes(res: "RadiometerResult", scene: Scene, hybrid: bool,
             meshes[water_index] = wave_mesh_sensitivity(scene, water_index, int(scene.settings.threads))
         if meshes[water_index] is not None:
             flag_wave_mesh(res, meshes[water_index].get(res.name))
-    if hybrid and forward_cone_deg > 0.0 and scene.sun is not None and not beams_laterally_uniform(scene):
+    if forward_cone_biased(scene, hybrid, forward_cone_deg):
         res.notes.append(FORWARD_CONE_STRUCTURE)
         res.reliable[:] = False
         return
@@ -1239,7 +1248,7 @@ class Renderer:
             for wi in sorted({m for m in media_index if m >= 0}):
                 if wi not in self._meshes:
                     w = scene.water[wi]
-                    if w.type == "ocean" and w.surface.kind == "waves":
+                    if _wave_mesh_checked(w):
                         report(f"radiometers: checking the wave mesh of water '{w.name}'")
                     self._meshes[wi] = wave_mesh_sensitivity(scene, wi, self.threads, self._cancel,
                                                              lambda c: setattr(self, "_core", c))
@@ -1253,7 +1262,7 @@ class Renderer:
             if res.samples == 0:  # cancelled before its first pass ended: no result, not 0 +- 0
                 break
             flag_beam_modes(res, scene, hybrid, self.forward_cone_deg, media_index[ri], self._rehits, self._meshes,
-                            check_meshes=not cancelled)
+                            check_meshes=False)  # (made above, unless cancelled)
             if targets[ri] is not None:
                 res.target_error = targets[ri]
                 res.relative_error = worst_relative_error(res.mean, res.stderr)
